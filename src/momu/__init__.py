@@ -1,0 +1,34 @@
+"""momu: music <-> motion generation as registered, swappable parts.
+
+Importing ``momu`` is cheap: the registries load their built-in parts on first use and
+third-party plugins only when asked for by name.
+"""
+
+from momu.registry import (
+    BACKBONES,
+    DATASETS,
+    ENCODERS,
+    LOSSES,
+    METHODS,
+    METRICS,
+    REGISTRIES,
+    SAMPLERS,
+    SCHEDULERS,
+    VOCODERS,
+)
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BACKBONES",
+    "DATASETS",
+    "ENCODERS",
+    "LOSSES",
+    "METHODS",
+    "METRICS",
+    "REGISTRIES",
+    "SAMPLERS",
+    "SCHEDULERS",
+    "VOCODERS",
+    "__version__",
+]

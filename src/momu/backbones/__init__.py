@@ -1,0 +1,1 @@
+"""Built-in backbones; importing this package registers them in momu.registry.BACKBONES."""

@@ -1,0 +1,58 @@
+"""The ``momu`` command. Each subcommand lives in its own module of this package.
+
+A subcommand module defines ``add_parser(subparsers)``, which adds its parser and sets
+``func`` (a callable taking the parsed arguments and returning an exit status).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+from momu.config import ConfigError
+from momu.registry import PluginError, RegistryError
+
+__all__ = ["main", "build_parser"]
+
+# Modules providing subcommands, in the order `momu --help` lists them.
+SUBCOMMAND_MODULES: tuple[str, ...] = (
+    "momu.cli.parts",
+    "momu.cli.config_cmd",
+)
+
+USAGE_ERRORS = (ConfigError, RegistryError, PluginError)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from momu import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="momu", description="momu: music <-> motion generation (MoMu-Diffusion, MoFusion, HarmoGAN)."
+    )
+    parser.add_argument("--version", action="version", version=f"momu {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv for debug)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for module in SUBCOMMAND_MODULES:
+        importlib.import_module(module).add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``momu`` command; returns the exit status (2 for usage and config errors)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.WARNING - 10 * min(args.verbose, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.func(args) or 0)
+    except USAGE_ERRORS as exc:
+        sys.stderr.write(f"momu {args.command}: error: {exc}\n")
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,243 @@
+"""Configs: OmegaConf trees whose component nodes are validated against their part's dataclass.
+
+A *component node* is a mapping ``{name: <registry name>, **params}`` (or just the bare name)
+stored under a key that names a registry kind:
+
+* a key equal to a kind's singular (``backbone``, ``encoder``, ``loss``, ``sampler``,
+  ``scheduler``, ``vocoder``, ``metric``, ``dataset``, ``method``) or ending in ``_<singular>``
+  (``music_encoder``, ``motion_encoder``) holds one component of that kind;
+* a key equal to a kind's plural or ending in ``_<plural>`` (``metrics``, ``aux_losses``) holds
+  a list of components.
+
+Validation merges each node's params into its part's config dataclass, so a misspelled key is
+an error naming the valid keys, missing params take their defaults, and values are type-checked.
+Components nest: a part's dataclass may hold component nodes of its own (a method's backbone).
+A bare-name override (``backbone=unet1d``) replaces the whole node, dropping the old params.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, ListConfig, OmegaConf
+from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
+
+from momu.io import atomic_write_text
+from momu.registry import KINDS, Entry, PluginError, RegistryError, registry_for
+
+__all__ = [
+    "ConfigError",
+    "component_kind",
+    "load_config",
+    "apply_overrides",
+    "validate",
+    "instantiate_config",
+    "build_component",
+    "save_config",
+    "to_container",
+]
+
+_SINGULAR = {kind: ("loss" if kind == "losses" else kind[:-1]) for kind in KINDS}
+
+
+class ConfigError(ValueError):
+    """A config that cannot be loaded or does not validate; the message names the key."""
+
+
+def component_kind(key: str) -> tuple[str, bool] | None:
+    """``(kind, is_list)`` when ``key`` names a component node, else ``None``.
+
+    >>> component_kind("music_encoder")
+    ('encoders', False)
+    >>> component_kind("metrics")
+    ('metrics', True)
+    """
+    for kind, singular in _SINGULAR.items():
+        if key == singular or key.endswith("_" + singular):
+            return kind, False
+        if key == kind or key.endswith("_" + kind):
+            return kind, True
+    return None
+
+
+def _join(path: str, key: Any) -> str:
+    return f"{path}.{key}" if path else str(key)
+
+
+def _plain(node: Any) -> Any:
+    if isinstance(node, (DictConfig, ListConfig)):
+        return OmegaConf.to_container(node, resolve=True)
+    return node
+
+
+def _entry(kind: str, name: Any, path: str) -> Entry:
+    if not isinstance(name, str):
+        raise ConfigError(f"{path}: a {_SINGULAR[kind]} node needs a 'name' (a registered {kind} name)")
+    try:
+        return registry_for(kind).get(name)
+    except (RegistryError, PluginError) as exc:
+        raise ConfigError(f"{path}: {exc}") from exc
+
+
+def _merge_params(entry: Entry, params: Mapping[str, Any], path: str) -> Any:
+    """Merge ``params`` into the entry's structured config; errors name the key and valid keys."""
+    label = f"{_SINGULAR[entry.kind]} '{entry.name}'"
+    if entry.config is None:
+        if params:
+            raise ConfigError(f"{path}: {label} takes no parameters, got {', '.join(map(str, params))}")
+        return OmegaConf.create({})
+    schema = OmegaConf.structured(entry.config)
+    valid = ", ".join(f.name for f in dataclasses.fields(entry.config))
+    try:
+        return OmegaConf.merge(schema, dict(params))
+    except (ConfigKeyError, ConfigAttributeError) as exc:
+        key = getattr(exc, "full_key", None) or getattr(exc, "key", None) or "?"
+        raise ConfigError(f"{_join(path, key)}: unknown key for {label}; valid keys: {valid}") from None
+    except OmegaConfBaseException as exc:
+        key = getattr(exc, "full_key", None) or "?"
+        msg = str(exc).splitlines()[0]
+        raise ConfigError(f"{_join(path, key)}: invalid value for {label}: {msg}") from None
+
+
+def _validate_component(node: Any, kind: str, path: str) -> dict[str, Any]:
+    node = _plain(node)
+    if isinstance(node, str):
+        node = {"name": node}
+    if not isinstance(node, Mapping):
+        raise ConfigError(f"{path}: expected a {_SINGULAR[kind]} name or {{name: ..., params}}, got {node!r}")
+    params = {k: v for k, v in node.items() if k != "name"}
+    entry = _entry(kind, node.get("name"), path)
+    merged = OmegaConf.to_container(_merge_params(entry, params, path), resolve=True)
+    assert isinstance(merged, dict)
+    return {"name": entry.name, **_validate_tree(merged, path)}
+
+
+def _validate_tree(tree: Mapping[str, Any], path: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        sub = _join(path, key)
+        found = component_kind(str(key))
+        if found is None or value is None:
+            out[key] = _validate_tree(value, sub) if isinstance(value, Mapping) else value
+        elif found[1]:
+            if not isinstance(value, Sequence) or isinstance(value, str):
+                raise ConfigError(f"{sub}: expected a list of {found[0]}, got {value!r}")
+            out[key] = [_validate_component(v, found[0], f"{sub}[{i}]") for i, v in enumerate(value)]
+        else:
+            out[key] = _validate_component(value, found[0], sub)
+    return out
+
+
+def validate(cfg: Any, schema: type | None = None) -> DictConfig:
+    """Validate every component node of ``cfg`` (and the top level against ``schema``); freeze it.
+
+    Raises:
+        ConfigError: the first bad key, named by its dotted path, with the valid keys.
+    """
+    tree = _plain(cfg)
+    if not isinstance(tree, Mapping):
+        raise ConfigError(f"a config must be a mapping at the top level, got {type(tree).__name__}")
+    resolved = _validate_tree(tree, "")
+    if schema is not None:
+        valid = ", ".join(f.name for f in dataclasses.fields(schema))
+        try:
+            checked = OmegaConf.merge(OmegaConf.structured(schema), resolved)
+        except (ConfigKeyError, ConfigAttributeError) as exc:
+            key = getattr(exc, "full_key", None) or "?"
+            raise ConfigError(f"{key}: unknown key; valid keys: {valid}") from None
+        except OmegaConfBaseException as exc:
+            key = getattr(exc, "full_key", None) or "?"
+            raise ConfigError(f"{key}: invalid value: {str(exc).splitlines()[0]}") from None
+        resolved = OmegaConf.to_container(checked, resolve=True)  # type: ignore[assignment]
+    out = OmegaConf.create(resolved)
+    OmegaConf.set_readonly(out, True)
+    return out
+
+
+def _parse_override(text: str) -> tuple[str, Any]:
+    if "=" not in text or text.startswith("="):
+        raise ConfigError(f"override {text!r}: expected key=value")
+    key, raw = text.split("=", 1)
+    key = key.strip().lstrip("+")
+    try:
+        value = OmegaConf.to_container(OmegaConf.from_dotlist([f"v={raw}"]))["v"]  # type: ignore[index]
+    except OmegaConfBaseException as exc:
+        raise ConfigError(f"override {text!r}: cannot parse value: {exc}") from None
+    return key, value
+
+
+def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
+    """Apply ``key=value`` dotlist overrides to an unvalidated config.
+
+    A value given to a component key replaces that whole node (``backbone=unet1d`` drops the
+    old node's params); a dotted key (``backbone.depth=4``) sets one param.
+    """
+    tree = OmegaConf.create(_plain(cfg) if cfg is not None else {})
+    for text in overrides:
+        key, value = _parse_override(text)
+        leaf = key.rsplit(".", 1)[-1]
+        if component_kind(leaf) is not None and not isinstance(value, dict):
+            OmegaConf.update(tree, key, value, merge=False, force_add=True)
+        else:
+            OmegaConf.update(tree, key, value, merge=True, force_add=True)
+    return tree
+
+
+def load_config(
+    source: str | Path | Mapping[str, Any] | DictConfig | None = None,
+    overrides: Iterable[str] = (),
+    schema: type | None = None,
+) -> DictConfig:
+    """Load a YAML file (or mapping), apply overrides, validate and freeze.
+
+    Raises:
+        ConfigError: unreadable file, bad YAML, bad override, or a key that does not validate.
+    """
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        if not path.is_file():
+            raise ConfigError(f"{path}: config file not found")
+        try:
+            base: Any = OmegaConf.load(path)
+        except Exception as exc:
+            raise ConfigError(f"{path}: cannot parse YAML: {str(exc).splitlines()[0]}") from None
+    else:
+        base = source or {}
+    return validate(apply_overrides(base, overrides), schema)
+
+
+def instantiate_config(entry: Entry, params: Mapping[str, Any]) -> Any:
+    """The entry's config dataclass instance built from ``params`` (validated)."""
+    if entry.config is None:
+        if params:
+            raise ConfigError(f"{entry.kind} '{entry.name}' takes no parameters")
+        return None
+    merged = _merge_params(entry, _validate_tree(dict(params), entry.name), entry.name)
+    return OmegaConf.to_object(merged)
+
+
+def build_component(node: Any, kind: str, /, **deps: Any) -> Any:
+    """Build the part described by a component node (``{name, **params}`` or a bare name)."""
+    node = _plain(node)
+    if isinstance(node, str):
+        node = {"name": node}
+    params = {k: v for k, v in node.items() if k != "name"}
+    entry = _entry(kind, node.get("name"), _SINGULAR[kind])
+    return registry_for(kind).build(entry.name, params, **deps)
+
+
+def to_container(cfg: Any) -> Any:
+    """A plain (JSON-serialisable) copy of a config."""
+    return _plain(cfg)
+
+
+def save_config(cfg: Any, path: str | Path) -> Path:
+    """Write ``cfg`` as YAML (``.yaml``/``.yml``) or JSON (any other suffix), atomically."""
+    path = Path(path)
+    plain = _plain(cfg)
+    text = OmegaConf.to_yaml(plain) if path.suffix in {".yaml", ".yml"} else json.dumps(plain, indent=2)
+    return atomic_write_text(path, text)

@@ -1,0 +1,1 @@
+"""Built-in datasets; importing this package registers them in momu.registry.DATASETS."""

@@ -1,0 +1,1 @@
+"""Audio and motion features shared by datasets, losses and metrics."""

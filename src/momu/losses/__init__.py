@@ -1,0 +1,1 @@
+"""Built-in losses; importing this package registers them in momu.registry.LOSSES."""

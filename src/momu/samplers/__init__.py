@@ -1,0 +1,1 @@
+"""Built-in samplers; importing this package registers them in momu.registry.SAMPLERS."""

@@ -1,0 +1,1 @@
+"""Built-in schedulers; importing this package registers them in momu.registry.SCHEDULERS."""

@@ -1,0 +1,1 @@
+"""Built-in vocoders; importing this package registers them in momu.registry.VOCODERS."""
