@@ -19,7 +19,6 @@ entry point; it never breaks ``import momu`` or other parts.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import importlib
 import inspect
 from collections.abc import Callable, Iterator
@@ -45,12 +44,20 @@ __all__ = [
     "DATASETS",
     "METHODS",
     "registry_for",
+    "singular",
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
 T = TypeVar("T")
 
 BUILTIN_SOURCE = "momu"
+
+
+def singular(kind: str) -> str:
+    """``"backbones" -> "backbone"``, ``"losses" -> "loss"``: how one part of a kind is called."""
+    if kind.endswith("sses"):
+        return kind[:-2]
+    return kind[:-1] if kind.endswith("s") else kind
 
 
 class RegistryError(LookupError):
@@ -101,17 +108,12 @@ def _describe(ep: EntryPoint) -> str:
     return f"entry point '{ep.name} = {ep.value}' in group '{ep.group}'"
 
 
-@functools.cache
-def _distributions_by_package() -> dict[str, list[str]]:
-    return dict(packages_distributions())
-
-
 def _source_of_module(module: str) -> str:
     """``"momu"`` for momu's own modules, ``"dist==version"`` for an installed package, else ``"local"``."""
     top = module.split(".")[0]
     if top == "momu":
         return BUILTIN_SOURCE
-    dists = _distributions_by_package().get(top)
+    dists = packages_distributions().get(top)  # scanned only for non-momu parts: plugins, user code
     if not dists:
         return f"local ({module})" if module else "local"
     return f"{dists[0]}=={version(dists[0])}"
@@ -218,7 +220,7 @@ class Registry(Generic[T]):
         ep = self._entry_points().get(name)
         if ep is None:
             raise RegistryError(
-                f"unknown {self.kind[:-1] if self.kind.endswith('s') else self.kind} '{name}'; "
+                f"unknown {singular(self.kind)} '{name}'; "
                 f"valid names: {', '.join(self.names()) or '(none)'}"
             )
         return self._load_plugin(name, ep)
@@ -245,6 +247,9 @@ class Registry(Generic[T]):
                 f"{_describe(ep)} of {source} imported but registered no {self.kind} part named "
                 f"'{name}' (decorate the factory with @momu.registry.{self.kind.upper()}.register('{name}', ...))"
             )
+        if entry.source != source:  # the entry point's distribution is the authoritative source
+            entry = dataclasses.replace(entry, source=source)
+            self._entries[name] = entry
         return entry
 
     # ------------------------------------------------------------------ building

@@ -52,7 +52,3 @@ def main(argv: Sequence[str] | None = None) -> int:
     except USAGE_ERRORS as exc:
         sys.stderr.write(f"momu {args.command}: error: {exc}\n")
         return 2
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())

@@ -27,7 +27,7 @@ from omegaconf import DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
 
 from momu.io import atomic_write_text
-from momu.registry import KINDS, Entry, PluginError, RegistryError, registry_for
+from momu.registry import KINDS, Entry, PluginError, RegistryError, registry_for, singular
 
 __all__ = [
     "ConfigError",
@@ -40,8 +40,6 @@ __all__ = [
     "save_config",
     "to_container",
 ]
-
-_SINGULAR = {kind: ("loss" if kind == "losses" else kind[:-1]) for kind in KINDS}
 
 
 class ConfigError(ValueError):
@@ -56,8 +54,9 @@ def component_kind(key: str) -> tuple[str, bool] | None:
     >>> component_kind("metrics")
     ('metrics', True)
     """
-    for kind, singular in _SINGULAR.items():
-        if key == singular or key.endswith("_" + singular):
+    for kind in KINDS:
+        one = singular(kind)
+        if key == one or key.endswith("_" + one):
             return kind, False
         if key == kind or key.endswith("_" + kind):
             return kind, True
@@ -76,7 +75,7 @@ def _plain(node: Any) -> Any:
 
 def _entry(kind: str, name: Any, path: str) -> Entry:
     if not isinstance(name, str):
-        raise ConfigError(f"{path}: a {_SINGULAR[kind]} node needs a 'name' (a registered {kind} name)")
+        raise ConfigError(f"{path}: a {singular(kind)} node needs a 'name' (a registered {kind} name)")
     try:
         return registry_for(kind).get(name)
     except (RegistryError, PluginError) as exc:
@@ -85,7 +84,7 @@ def _entry(kind: str, name: Any, path: str) -> Entry:
 
 def _merge_params(entry: Entry, params: Mapping[str, Any], path: str) -> Any:
     """Merge ``params`` into the entry's structured config; errors name the key and valid keys."""
-    label = f"{_SINGULAR[entry.kind]} '{entry.name}'"
+    label = f"{singular(entry.kind)} '{entry.name}'"
     if entry.config is None:
         if params:
             raise ConfigError(f"{path}: {label} takes no parameters, got {', '.join(map(str, params))}")
@@ -108,7 +107,7 @@ def _validate_component(node: Any, kind: str, path: str) -> dict[str, Any]:
     if isinstance(node, str):
         node = {"name": node}
     if not isinstance(node, Mapping):
-        raise ConfigError(f"{path}: expected a {_SINGULAR[kind]} name or {{name: ..., params}}, got {node!r}")
+        raise ConfigError(f"{path}: expected a {singular(kind)} name or {{name: ..., params}}, got {node!r}")
     params = {k: v for k, v in node.items() if k != "name"}
     entry = _entry(kind, node.get("name"), path)
     merged = OmegaConf.to_container(_merge_params(entry, params, path), resolve=True)
@@ -170,6 +169,22 @@ def _parse_override(text: str) -> tuple[str, Any]:
     return key, value
 
 
+def _expand_bare_names(tree: Any) -> Any:
+    """Turn bare-name component nodes (``backbone: dit``) into ``{name: dit}`` so params can be set on them."""
+    if isinstance(tree, Mapping):
+        out = {}
+        for key, value in tree.items():
+            found = component_kind(str(key))
+            if found is not None and not found[1] and isinstance(value, str):
+                out[key] = {"name": value}
+            elif found is not None and found[1] and isinstance(value, list):
+                out[key] = [{"name": v} if isinstance(v, str) else _expand_bare_names(v) for v in value]
+            else:
+                out[key] = _expand_bare_names(value)
+        return out
+    return tree
+
+
 def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
     """Apply ``key=value`` dotlist overrides to an unvalidated config.
 
@@ -179,6 +194,7 @@ def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
     tree = OmegaConf.create(_plain(cfg) if cfg is not None else {})
     for text in overrides:
         key, value = _parse_override(text)
+        tree = OmegaConf.create(_expand_bare_names(_plain(tree)))
         leaf = key.rsplit(".", 1)[-1]
         if component_kind(leaf) is not None and not isinstance(value, dict):
             OmegaConf.update(tree, key, value, merge=False, force_add=True)
@@ -226,7 +242,7 @@ def build_component(node: Any, kind: str, /, **deps: Any) -> Any:
     if isinstance(node, str):
         node = {"name": node}
     params = {k: v for k, v in node.items() if k != "name"}
-    entry = _entry(kind, node.get("name"), _SINGULAR[kind])
+    entry = _entry(kind, node.get("name"), singular(kind))
     return registry_for(kind).build(entry.name, params, **deps)
 
 

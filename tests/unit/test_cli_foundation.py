@@ -1,0 +1,67 @@
+"""`momu list` and `momu config show`."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from momu.cli import main
+from momu.registry import BACKBONES, KINDS
+
+
+@dataclass
+class CliNetConfig:
+    depth: int = 2
+
+
+@pytest.fixture
+def cli_net():
+    BACKBONES.register("clitest_net", config=CliNetConfig)(lambda cfg: cfg)
+    yield
+    BACKBONES.unregister("clitest_net")
+
+
+def test_list_shows_every_kind_with_sources(capsys: pytest.CaptureFixture[str], cli_net: None) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for kind in KINDS:
+        assert f"\n{kind} (" in "\n" + out
+    line = next(line for line in out.splitlines() if "clitest_net" in line)
+    assert line.split()[-1] in {"momu"} or "local" in line
+
+
+def test_list_one_kind(capsys: pytest.CaptureFixture[str], cli_net: None) -> None:
+    assert main(["list", "backbones"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("backbones (") and "metrics (" not in out
+
+
+def test_config_show_prints_resolved_config(tmp_path: Path, capsys: pytest.CaptureFixture[str], cli_net: None) -> None:
+    path = tmp_path / "run.yaml"
+    path.write_text("backbone: clitest_net\ntrain:\n  lr: 0.1\n")
+    assert main(["config", "show", str(path), "backbone.depth=6"]) == 0
+    out = capsys.readouterr().out
+    assert "name: clitest_net" in out and "depth: 6" in out and "lr: 0.1" in out
+
+
+def test_config_show_rejects_bad_key_with_status_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], cli_net: None
+) -> None:
+    path = tmp_path / "run.yaml"
+    path.write_text("backbone: clitest_net\n")
+    assert main(["config", "show", str(path), "backbone.depht=4"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "backbone.depht" in err[0] and "valid keys: depth" in err[0]
+
+
+def test_console_script_runs() -> None:
+    script = Path(sys.executable).with_name("momu")
+    command = [str(script)] if script.exists() else [sys.executable, "-m", "momu"]
+    proc = subprocess.run([*command, "list", "methods"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("methods (")
