@@ -1,1 +1,2 @@
 """Built-in encoders; importing this package registers them in momu.registry.ENCODERS."""
+from momu.encoders import learnable_motion  # noqa: F401
