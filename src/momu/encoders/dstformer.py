@@ -147,6 +147,26 @@ class _Block(nn.Module):
         return x + self.mlp(self.norm2(x))
 
 
+class _DualStreamLayer(nn.Module):
+    """One DSTformer layer: ST and TS branches fused by adaptive weights (MotionBERT Eq. 5)."""
+
+    def __init__(self, cfg: DSTformerConfig) -> None:
+        super().__init__()
+        self.st_spatial = _Block(cfg, "spatial")
+        self.st_temporal = _Block(cfg, "temporal")
+        self.ts_temporal = _Block(cfg, "temporal")
+        self.ts_spatial = _Block(cfg, "spatial")
+        self.fusion = nn.Linear(2 * cfg.dim_feat, 2)
+        nn.init.zeros_(self.fusion.weight)  # MotionBERT: equal stream weights at initialisation
+        nn.init.constant_(self.fusion.bias, 0.5)
+
+    def forward(self, h: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
+        x_st = self.st_temporal(self.st_spatial(h, mask), mask)
+        x_ts = self.ts_spatial(self.ts_temporal(h, mask), mask)
+        alpha = self.fusion(torch.cat([x_st, x_ts], dim=-1)).softmax(dim=-1)  # (B, T, J, 2)
+        return x_st * alpha[..., 0:1] + x_ts * alpha[..., 1:2]
+
+
 class DSTformer(nn.Module):
     """Dual-stream spatio-temporal transformer ``(B, T, J, D) -> (B, T, J, dim_rep)``.
 
@@ -159,16 +179,7 @@ class DSTformer(nn.Module):
         self.joints_embed = nn.Linear(cfg.dim_in, cfg.dim_feat)
         self.pos_embed = nn.Parameter(torch.zeros(1, 1, cfg.num_joints, cfg.dim_feat))
         nn.init.trunc_normal_(self.pos_embed, std=0.02)
-        self.blocks_st = nn.ModuleList(
-            nn.ModuleList([_Block(cfg, "spatial"), _Block(cfg, "temporal")]) for _ in range(cfg.depth)
-        )
-        self.blocks_ts = nn.ModuleList(
-            nn.ModuleList([_Block(cfg, "temporal"), _Block(cfg, "spatial")]) for _ in range(cfg.depth)
-        )
-        self.fusion = nn.ModuleList(nn.Linear(2 * cfg.dim_feat, 2) for _ in range(cfg.depth))
-        for layer in self.fusion:  # MotionBERT: equal stream weights at initialisation
-            nn.init.zeros_(layer.weight)
-            nn.init.constant_(layer.bias, 0.5)
+        self.layers = nn.ModuleList(_DualStreamLayer(cfg) for _ in range(cfg.depth))
         self.norm = nn.LayerNorm(cfg.dim_feat)
         self.pre_logits = nn.Sequential(nn.Linear(cfg.dim_feat, cfg.dim_rep), nn.Tanh())
 
@@ -202,11 +213,6 @@ class DSTformer(nn.Module):
         _, t, _, _ = x.shape
         h = self.joints_embed(x) + self.pos_embed
         h = h + sinusoidal_embedding(t, self.cfg.dim_feat, device=x.device).to(h.dtype)[None, :, None, :]
-        for (st_spatial, st_temporal), (ts_temporal, ts_spatial), fuse in zip(
-            self.blocks_st, self.blocks_ts, self.fusion
-        ):
-            x_st = st_temporal(st_spatial(h, mask), mask)
-            x_ts = ts_spatial(ts_temporal(h, mask), mask)
-            alpha = fuse(torch.cat([x_st, x_ts], dim=-1)).softmax(dim=-1)  # (B, T, J, 2)
-            h = x_st * alpha[..., 0:1] + x_ts * alpha[..., 1:2]
+        for layer in self.layers:
+            h = layer(h, mask)
         return self.pre_logits(self.norm(h))
