@@ -1,1 +1,3 @@
 """Built-in losses; importing this package registers them in momu.registry.LOSSES."""
+
+from momu.losses import diffusion  # noqa: F401

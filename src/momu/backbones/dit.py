@@ -1,0 +1,240 @@
+"""``dit``: the Transformer denoiser of MoMu-Diffusion (the paper's "FFT", MoMu §4, Table 9).
+
+MoMu §4: "concatenating the noisy input with the embedded conditional inputs and the embedded
+diffusion timesteps along the temporal dimension. This fused input is then padded to match a
+specified maximum length and combined with positional embeddings prior to being processed by
+the DiT model. The DiT output is subsequently truncated to the original temporal length and
+mapped to the output latent space."
+
+Token layout of one item (``L_x`` valid latent frames, ``L_c`` valid condition frames)::
+
+    [ x_0 … x_{L_x-1} | c_0 … c_{L_c-1} | t ]      positions 0 … L_x + L_c
+
+Positions are those of this per-item concatenation, so an item's tokens see the same positional
+embeddings whether it is batched with longer items or alone; padded tokens are excluded as
+attention keys, so neither the amount nor the content of padding changes the valid output
+(tested as a property). A dropped condition (classifier-free guidance, MoMu Eq. 7) is one
+learned null token in place of the condition frames, so ``drop_cond=True`` and ``cond=None``
+are the same call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from momu.backbones.blocks import (
+    TimestepEmbedder,
+    TransformerBlock,
+    _init_linear,
+    check_backbone_inputs,
+    check_prefix_mask,
+    scaled_init_std,
+)
+from momu.registry import BACKBONES
+
+__all__ = ["DiTConfig", "DiT", "build_dit"]
+
+
+@dataclass
+class DiTConfig:
+    """Hyperparameters of the FFT/DiT denoiser; defaults are MoMu Table 9.
+
+    Attributes:
+        in_channels: latent channels of the noisy input (Table 9 "Input channels" 20).
+        cond_channels: channels of the condition sequence (the other modality's latent, 20);
+            0 builds an unconditional model.
+        cond_embed_dim: width of the condition embedding MLP (Table 9 "Dimension of
+            conditional embedding" 1024).
+        hidden: transformer width (Table 9 "Dimension of Hidden representation" 576).
+        heads: attention heads (Table 9: 8).
+        depth: transformer blocks (Table 9: 4).
+        mlp_ratio: feed-forward width / hidden (not in the paper; the usual 4).
+        proj_kernel_size: kernel of the Conv1d input/output projections (Table 9: 5). Table 9's
+            "padding 3" with kernel 5 yields T+2 frames; cropping them back to T (as §4 does)
+            equals "same" padding 2, which is what is used.
+        max_length: maximum fused length L_x + L_c + 1 (positional-embedding table size).
+            1024 holds 30 s of both MoMu latents (2 × 469 frames + 1).
+        pad_to_max: physically pad every batch to ``max_length`` (static shapes, as the paper
+            describes). Padded tokens are masked, so this changes cost, never the result.
+        time_freq_dim: sinusoidal frequencies fed to the timestep MLP.
+        segment_embeddings: add a learned type embedding (latent / condition / timestep) to
+            each token, so the model need not infer the segment from content (not in the paper).
+        dropout: dropout in attention and feed-forward layers.
+    """
+
+    in_channels: int = 20
+    cond_channels: int = 20
+    cond_embed_dim: int = 1024
+    hidden: int = 576
+    heads: int = 8
+    depth: int = 4
+    mlp_ratio: float = 4.0
+    proj_kernel_size: int = 5
+    max_length: int = 1024
+    pad_to_max: bool = False
+    time_freq_dim: int = 256
+    segment_embeddings: bool = True
+    dropout: float = 0.0
+
+
+class DiT(nn.Module):
+    """Transformer denoiser following the backbone call protocol (docs/protocols.md).
+
+    ``forward(x (B,T,C), t (B,), cond (B,Tc,Cc) | None, *, x_mask, cond_mask, drop_cond) -> (B,T,C)``;
+    output frames where ``x_mask`` is False are zero.
+    """
+
+    def __init__(self, cfg: DiTConfig) -> None:
+        super().__init__()
+        for field in ("in_channels", "hidden", "heads", "depth", "max_length", "time_freq_dim"):
+            if getattr(cfg, field) <= 0:
+                raise ValueError(f"dit.{field} must be positive, got {getattr(cfg, field)}")
+        if cfg.cond_channels < 0:
+            raise ValueError(f"dit.cond_channels must be >= 0, got {cfg.cond_channels}")
+        if cfg.proj_kernel_size <= 0 or cfg.proj_kernel_size % 2 == 0:
+            raise ValueError(
+                f"dit.proj_kernel_size must be a positive odd number, got {cfg.proj_kernel_size}"
+            )
+        if cfg.hidden % cfg.heads:
+            raise ValueError(f"dit.hidden={cfg.hidden} is not divisible by dit.heads={cfg.heads}")
+        if cfg.time_freq_dim % 2:
+            raise ValueError(f"dit.time_freq_dim must be even, got {cfg.time_freq_dim}")
+        self.cfg = cfg
+        self.in_channels = cfg.in_channels
+        self.cond_channels = cfg.cond_channels
+        self.max_length: int | None = cfg.max_length
+        h, k = cfg.hidden, cfg.proj_kernel_size
+        self.in_proj = nn.Conv1d(cfg.in_channels, h, k, padding=k // 2)
+        self.out_norm = nn.LayerNorm(h)
+        self.out_proj = nn.Conv1d(h, cfg.in_channels, k, padding=k // 2)
+        self.time_embed = TimestepEmbedder(h, cfg.time_freq_dim)
+        self.cond_embed: nn.Module | None = None
+        self.null_cond: nn.Parameter | None = None
+        if cfg.cond_channels > 0:
+            self.cond_embed = nn.Sequential(
+                nn.Linear(cfg.cond_channels, cfg.cond_embed_dim), nn.GELU(), nn.Linear(cfg.cond_embed_dim, h)
+            )
+            self.null_cond = nn.Parameter(torch.randn(h) * scaled_init_std(h))
+        self.pos_embed = nn.Parameter(torch.randn(cfg.max_length, h) * scaled_init_std(h))
+        self.segment_embed = nn.Embedding(3, h) if cfg.segment_embeddings else None
+        self.blocks = nn.ModuleList(
+            [TransformerBlock(h, cfg.heads, None, cfg.mlp_ratio, cfg.dropout) for _ in range(cfg.depth)]
+        )
+        _init_linear(self.blocks)
+
+    # ------------------------------------------------------------------ condition tokens
+    def _cond_tokens(
+        self, b: int, cond: Tensor | None, cond_mask: Tensor | None, drop_cond: Tensor | None, ref: Tensor
+    ) -> tuple[Tensor | None, Tensor | None]:
+        """``(tokens (B, Lc, H), mask (B, Lc))``; dropped items get one learned null token."""
+        if self.cond_embed is None or self.null_cond is None:
+            return None, None
+        null = self.null_cond.to(ref.dtype)
+        if cond is None:
+            return null.expand(b, 1, -1), torch.ones(b, 1, dtype=torch.bool, device=ref.device)
+        tokens = self.cond_embed(cond.to(ref.dtype))
+        mask = (
+            cond_mask
+            if cond_mask is not None
+            else torch.ones(cond.shape[:2], dtype=torch.bool, device=ref.device)
+        )
+        if drop_cond is not None and bool(drop_cond.any()):
+            first = torch.zeros_like(mask)
+            first[:, 0] = True
+            drop = drop_cond[:, None]
+            tokens = torch.where(drop[..., None] & first[..., None], null, tokens)
+            mask = torch.where(drop, first, mask)
+        return tokens, mask
+
+    # ------------------------------------------------------------------ forward
+    def forward(
+        self,
+        x: Tensor,
+        t: Tensor,
+        cond: Tensor | None = None,
+        *,
+        x_mask: Tensor | None = None,
+        cond_mask: Tensor | None = None,
+        drop_cond: Tensor | None = None,
+    ) -> Tensor:
+        """Predict the noise ε of ``x`` at timesteps ``t`` (MoMu Eq. 6).
+
+        Args:
+            x: ``(B, T, in_channels)`` noisy latent.
+            t: ``(B,)`` integer timesteps in ``[0, num_train_timesteps)``.
+            cond: ``(B, Tc, cond_channels)`` condition sequence, or ``None`` (null condition).
+            x_mask: ``(B, T)`` bool, True = valid frame (valid frames first).
+            cond_mask: ``(B, Tc)`` bool, True = valid condition frame (valid frames first).
+            drop_cond: ``(B,)`` bool; True replaces that item's condition by the null token.
+
+        Returns:
+            ``(B, T, in_channels)``; zero where ``x_mask`` is False.
+        """
+        check_backbone_inputs(x, t, cond, x_mask, cond_mask, drop_cond, self.in_channels, self.cond_channels)
+        b, length, _ = x.shape
+        dev = x.device
+        if x_mask is None:
+            x_mask = torch.ones(b, length, dtype=torch.bool, device=dev)
+        len_x = check_prefix_mask(x_mask, "x_mask")
+        if cond_mask is not None:
+            check_prefix_mask(cond_mask, "cond_mask")
+        keep = x_mask[..., None].to(x.dtype)
+
+        # latent tokens: masked so padded content never reaches a valid frame through the conv
+        hx = self.in_proj((x * keep).transpose(1, 2)).transpose(1, 2)  # (B, T, H)
+        c_tok, c_mask = self._cond_tokens(b, cond, cond_mask, drop_cond, hx)
+        t_tok = self.time_embed(t)[:, None, :].to(hx.dtype)  # (B, 1, H)
+
+        parts, masks = [hx], [x_mask]
+        len_c = torch.zeros_like(len_x)
+        if c_tok is not None and c_mask is not None:
+            parts.append(c_tok)
+            masks.append(c_mask)
+            len_c = c_mask.sum(dim=1)
+        parts.append(t_tok)
+        masks.append(torch.ones(b, 1, dtype=torch.bool, device=dev))
+        tokens = torch.cat(parts, dim=1)  # (B, T + Lc + 1, H)
+        mask = torch.cat(masks, dim=1)
+
+        total = len_x + len_c + 1
+        if self.max_length is not None and int(total.max()) > self.max_length:
+            raise ValueError(
+                f"x/cond: fused length {int(total.max())} (latent + condition + 1 timestep token) exceeds "
+                f"dit.max_length={self.max_length}; raise max_length or shorten the sequence"
+            )
+        # positions of the per-item concatenation [x valid | cond valid | t]
+        pos = [torch.arange(length, device=dev).expand(b, -1)]
+        if c_tok is not None:
+            pos.append(len_x[:, None] + torch.arange(c_tok.shape[1], device=dev)[None, :])
+        pos.append(total[:, None] - 1)
+        pos_ids = torch.cat(pos, dim=1).clamp_max(self.cfg.max_length - 1)
+        tokens = tokens + self.pos_embed[pos_ids].to(tokens.dtype)
+        if self.segment_embed is not None:
+            seg = [torch.zeros(length, dtype=torch.long, device=dev)]
+            if c_tok is not None:
+                seg.append(torch.ones(c_tok.shape[1], dtype=torch.long, device=dev))
+            seg.append(torch.full((1,), 2, dtype=torch.long, device=dev))
+            tokens = tokens + self.segment_embed(torch.cat(seg))[None].to(tokens.dtype)
+
+        if self.cfg.pad_to_max and tokens.shape[1] < self.cfg.max_length:
+            extra = self.cfg.max_length - tokens.shape[1]
+            tokens = F.pad(tokens, (0, 0, 0, extra))
+            mask = F.pad(mask, (0, extra), value=False)
+
+        for block in self.blocks:
+            tokens = block(tokens, mask)
+
+        # truncate to the latent frames and project back (MoMu §4)
+        out = self.out_norm(tokens[:, :length]) * keep
+        out = self.out_proj(out.transpose(1, 2)).transpose(1, 2)
+        return out * keep
+
+
+@BACKBONES.register("dit", config=DiTConfig)
+def build_dit(cfg: DiTConfig, **deps: object) -> DiT:
+    """Build the MoMu FFT/DiT denoiser (MoMu §4, Table 9)."""
+    return DiT(cfg)

@@ -1,0 +1,193 @@
+"""What every guidance sampler shares: the backbone protocol, noise, the guided ε (MoMu Eq. 7)
+and the reverse loop over a :class:`~momu.schedulers.diffusers_schedulers.NoiseScheduler`.
+
+A sampler is a *strategy* over a scheduler and one or more backbones; the schedule arithmetic is
+the scheduler's (diffusers'). Samplers run under ``torch.no_grad`` and do not change a backbone's
+train/eval mode: call ``backbone.eval()`` first. Generation is reproducible with a seeded
+:class:`torch.Generator` (initial noise and, for stochastic schedulers, every step's noise).
+
+Variable length (MoMu §5.3): a batch of sequences of different lengths is generated at once by
+padding to the longest and passing ``x_mask (B, T)`` (True = valid, valid frames first). Padded
+frames are held at zero and never influence valid frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import torch
+from torch import Tensor
+
+from momu.schedulers.diffusers_schedulers import NoiseScheduler
+
+__all__ = [
+    "Backbone",
+    "EpsFn",
+    "resolve_scheduler",
+    "make_noise",
+    "module_device",
+    "guided_eps",
+    "reverse_loop",
+    "lengths_to_mask",
+]
+
+EpsFn = Callable[[Tensor, Tensor], Tensor]
+"""``eps_fn(x_t (B,T,C), t (B,) long) -> ε̂ (B,T,C)``: the noise estimate a sampler steps with."""
+
+
+@runtime_checkable
+class Backbone(Protocol):
+    """The backbone call protocol (docs/protocols.md).
+
+    Attributes:
+        in_channels: C of the denoised sequence ``x``.
+        cond_channels: Cc of the condition sequence (0 = unconditional).
+        max_length: largest supported length (``None`` = any).
+    """
+
+    in_channels: int
+    cond_channels: int
+    max_length: int | None
+
+    def __call__(
+        self,
+        x: Tensor,
+        t: Tensor,
+        cond: Tensor | None = None,
+        *,
+        x_mask: Tensor | None = None,
+        cond_mask: Tensor | None = None,
+        drop_cond: Tensor | None = None,
+    ) -> Tensor: ...
+
+
+def resolve_scheduler(scheduler: Any) -> NoiseScheduler:
+    """A :class:`NoiseScheduler` from an instance, a registry name or a ``{name, **params}`` node."""
+    if isinstance(scheduler, NoiseScheduler):
+        return scheduler
+    from momu.config import build_component
+
+    built = build_component(scheduler, "schedulers")
+    if not isinstance(built, NoiseScheduler):
+        raise TypeError(f"scheduler: expected a NoiseScheduler, got {type(built).__name__}")
+    return built
+
+
+def module_device(module: Any) -> tuple[torch.device, torch.dtype]:
+    """Device and floating dtype of a module's first parameter (CPU float32 without parameters)."""
+    params = getattr(module, "parameters", None)
+    if callable(params):
+        for p in params():
+            if torch.is_floating_point(p):
+                return p.device, p.dtype
+    return torch.device("cpu"), torch.float32
+
+
+def make_noise(
+    noise_or_shape: Tensor | Sequence[int],
+    generator: torch.Generator | None,
+    device: torch.device,
+    dtype: torch.dtype,
+) -> Tensor:
+    """The initial z_T ~ N(0, I): the given tensor, or fresh noise of the given ``(B, T, C)`` shape."""
+    if isinstance(noise_or_shape, Tensor):
+        noise = noise_or_shape.to(device=device, dtype=dtype)
+    else:
+        shape = tuple(int(s) for s in noise_or_shape)
+        if len(shape) != 3 or min(shape) <= 0:
+            raise ValueError(f"shape: expected a positive (B, T, C), got {shape}")
+        gen_device = generator.device if generator is not None else device
+        noise = torch.randn(shape, generator=generator, device=gen_device, dtype=dtype).to(device)
+    if noise.ndim != 3:
+        raise ValueError(f"noise: expected (B, T, C), got {tuple(noise.shape)}")
+    return noise
+
+
+def lengths_to_mask(lengths: Sequence[int] | Tensor, max_len: int | None = None) -> Tensor:
+    """``(B, max_len)`` bool prefix mask from per-item lengths (MoMu §5.3 variable-length batches)."""
+    lens = torch.as_tensor(lengths, dtype=torch.long)
+    if lens.ndim != 1 or bool((lens <= 0).any()):
+        raise ValueError(f"lengths: expected positive per-item lengths, got {lens.tolist()}")
+    total = int(lens.max()) if max_len is None else int(max_len)
+    if int(lens.max()) > total:
+        raise ValueError(f"lengths: {int(lens.max())} exceeds max_len={total}")
+    return torch.arange(total)[None, :] < lens[:, None]
+
+
+def _check_backbone(backbone: Any, name: str) -> None:
+    for attr in ("in_channels", "cond_channels"):
+        if not hasattr(backbone, attr):
+            raise TypeError(f"{name}: a backbone must have '{attr}' (see docs/protocols.md)")
+
+
+def guided_eps(
+    backbone: Backbone,
+    x: Tensor,
+    t: Tensor,
+    cond: Tensor | None,
+    scale: float,
+    *,
+    x_mask: Tensor | None = None,
+    cond_mask: Tensor | None = None,
+) -> Tensor:
+    """Classifier-free guidance, MoMu Eq. 7: ε̂ = ε(z_t, t, ∅) + s·(ε(z_t, t, c) − ε(z_t, t, ∅)).
+
+    The conditional and unconditional passes run as ONE batched forward of ``2B`` items, the
+    second half with ``drop_cond=True`` (the learned null embedding). Without a condition (or for
+    an unconditional backbone) it is the plain unconditional ε.
+
+    Args:
+        x: ``(B, T, C)`` noisy sequence; ``t``: ``(B,)`` timesteps; ``cond``: ``(B, Tc, Cc)``.
+        scale: guidance scale s (1 = conditional, 0 = unconditional).
+    """
+    b = x.shape[0]
+    if cond is None or backbone.cond_channels == 0:
+        if cond is not None:
+            raise ValueError("cond: given to an unconditional backbone (cond_channels=0)")
+        return backbone(x, t, None, x_mask=x_mask)
+    drop = torch.cat([torch.zeros(b, dtype=torch.bool), torch.ones(b, dtype=torch.bool)]).to(x.device)
+    out = backbone(
+        torch.cat([x, x]),
+        torch.cat([t, t]),
+        torch.cat([cond, cond]),
+        x_mask=None if x_mask is None else torch.cat([x_mask, x_mask]),
+        cond_mask=None if cond_mask is None else torch.cat([cond_mask, cond_mask]),
+        drop_cond=drop,
+    )
+    eps_c, eps_u = out.chunk(2)
+    return eps_u + scale * (eps_c - eps_u)
+
+
+def reverse_loop(
+    scheduler: NoiseScheduler,
+    x_T: Tensor,
+    eps_fn: EpsFn,
+    *,
+    x_mask: Tensor | None = None,
+    generator: torch.Generator | None = None,
+    num_inference_steps: int | None = None,
+    before_step: Callable[[Tensor, int], Tensor] | None = None,
+) -> Tensor:
+    """Run the reverse process z_T -> z_0 (MoMu Alg. 1) with the scheduler's ``step``.
+
+    Args:
+        x_T: ``(B, T, C)`` initial noise.
+        eps_fn: noise estimate at ``(z_t, t)``.
+        x_mask: ``(B, T)`` valid frames; padded frames are held at zero.
+        before_step: optional ``f(z_t, t) -> z_t`` applied before each model call (inpainting).
+    """
+    run = scheduler.begin(num_inference_steps)
+    keep = None if x_mask is None else x_mask[..., None].to(x_T.dtype)
+    x = x_T if keep is None else x_T * keep
+    b = x.shape[0]
+    for step_t in run.timesteps:
+        t_int = int(step_t)
+        if before_step is not None:
+            x = before_step(x, t_int)
+        t = torch.full((b,), t_int, dtype=torch.long, device=x.device)
+        eps = eps_fn(x, t)
+        x = run.step(eps, t_int, x, generator=generator)
+        if keep is not None:
+            x = x * keep
+    return x
