@@ -5,6 +5,7 @@ METRICS.md): music and motion beats, BAS, D2M beat coverage/hit, LORIS beat scor
 beat scores, EDGE's PFC, HarmoGAN's harmony score and hit rate.
 """
 
+from momu.metrics import motion_metrics  # noqa: F401  (registers fid_k, fid_g, div_k, div_g, multimodality)
 from momu.metrics._checks import EmptyBeatsError
 from momu.metrics.beat_align import bas, bas_dataset, beat_align_score
 from momu.metrics.beat_coverage import beat_coverage_dataset, beat_coverage_scores, select_aligned
@@ -16,12 +17,23 @@ from momu.metrics.beats import (
     music_beats,
     music_onset_envelope,
 )
+from momu.metrics.diversity import average_pairwise_distance, diversity, multimodality
 from momu.metrics.foot_contact import pfc, pfc_sequence
+from momu.metrics.frechet import fid, frechet_distance
+from momu.metrics.geometric import geometric_features
 from momu.metrics.harmony import HarmonyResult, harmony_from_beats, harmony_score, hit_rate
 from momu.metrics.kinematic_beats import kinematic_beat_frames, kinematic_beat_scores
+from momu.metrics.kinetic import kinetic_features
 from momu.metrics.loris_scores import beat_scores, onset_beat_bins, pair_beat_scores
 
 __all__ = [
+    "average_pairwise_distance",
+    "diversity",
+    "fid",
+    "frechet_distance",
+    "geometric_features",
+    "kinetic_features",
+    "multimodality",
     "EmptyBeatsError",
     "HarmonyResult",
     "aistpp_tempo",
