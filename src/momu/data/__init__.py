@@ -1,1 +1,2 @@
 """Built-in datasets; importing this package registers them in momu.registry.DATASETS."""
+from momu.data import aistpp, ballroom, d2m, dance_with_melody, humanml3d, loris  # noqa: F401

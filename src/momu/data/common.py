@@ -1,0 +1,463 @@
+"""Helpers shared by the real-dataset loaders: file readers with clear errors, keypoint cleaning,
+splits, cropping, and the lazy dataset base class.
+
+Every per-file problem is raised as :class:`DataFileError` (a ``ValueError``) whose message starts
+with the offending file, so ``momu data check`` can list each bad file with its reason. A file
+that does not exist raises :class:`MissingDataFileError`, which is also a ``FileNotFoundError``.
+
+Loaders are lazy: building a dataset reads only index files (split lists, folder listings);
+each clip is read, validated and cleaned when it is indexed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import logging
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momu.data.types import Clip
+from momu.io import read_json
+
+__all__ = [
+    "DataFileError",
+    "MissingDataFileError",
+    "LoaderConfig",
+    "ItemRef",
+    "LazyClipDataset",
+    "require_root",
+    "read_lines",
+    "read_json_file",
+    "load_npy",
+    "load_audio",
+    "audio_info",
+    "clean_keypoints",
+    "check_length_match",
+    "crop_clip",
+    "hash_split",
+    "skeleton_shape",
+    "SPLITS",
+    "PER_FRAME_META",
+    "check_split",
+    "sorted_items",
+]
+
+logger = logging.getLogger(__name__)
+
+SPLITS = ("train", "val", "test", "all")
+
+PER_FRAME_META = ("confidence", "smpl_poses", "smpl_trans")
+"""``Clip.meta`` keys holding per-motion-frame arrays (cropped with the motion by :func:`crop_clip`)."""
+
+
+class DataFileError(ValueError):
+    """A dataset file that cannot be used; ``str(err)`` is ``"<path>: <reason>"``.
+
+    Attributes:
+        path: the offending file (or folder).
+        reason: what is wrong with it.
+    """
+
+    def __init__(self, path: str | Path, reason: str) -> None:
+        self.path = Path(path)
+        self.reason = reason
+        super().__init__(f"{path}: {reason}")
+
+    def __reduce__(self) -> tuple[Any, ...]:  # keep (path, reason) through multiprocessing
+        return (type(self), (self.path, self.reason))
+
+
+class MissingDataFileError(DataFileError, FileNotFoundError):
+    """A file the layout requires does not exist."""
+
+
+@dataclass
+class LoaderConfig:
+    """Options every real-dataset loader shares (the loaders' configs extend this).
+
+    Attributes:
+        root: the dataset folder in its published layout (required).
+        split: ``train``, ``val``, ``test`` or ``all``.
+        load_audio: read the audio (``False``: motion only, much faster).
+        sample_rate: resample audio to this rate in Hz (``None``: keep the file's rate).
+        window_seconds: crop every clip to this many seconds (``None``: whole clips). A clip
+            shorter than ``window_offset_seconds + window_seconds`` is an error naming its file.
+        window_offset_seconds: where the window starts, in seconds from the clip's start.
+    """
+
+    root: str = ""
+    split: str = "all"
+    load_audio: bool = True
+    sample_rate: int | None = 16000
+    window_seconds: float | None = None
+    window_offset_seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class ItemRef:
+    """One item of a lazy dataset: its id, its main file and whatever the loader needs to read it."""
+
+    id: str
+    path: Path
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def require_root(root: str | Path, dataset: str, expected: str) -> Path:
+    """The dataset root as a Path; a clear error when it is unset or missing.
+
+    Args:
+        root: the user's ``root`` option.
+        dataset: the registry name (for the message).
+        expected: a one-line description of the layout expected under the root.
+    """
+    if not str(root):
+        raise ValueError(f"{dataset}: 'root' is required: the folder holding {expected}")
+    path = Path(root).expanduser()
+    if not path.is_dir():
+        raise FileNotFoundError(f"{dataset}: root folder {path} does not exist (expected {expected})")
+    return path
+
+
+def check_split(split: str, dataset: str, allowed: Sequence[str] = SPLITS) -> str:
+    if split not in allowed:
+        raise ValueError(f"{dataset}: split must be one of {', '.join(allowed)}; got {split!r}")
+    return split
+
+
+# ------------------------------------------------------------------------------------ readers
+def read_lines(path: str | Path) -> list[str]:
+    """The non-empty lines of a text file (split files, ignore lists, descriptions), stripped."""
+    path = Path(path)
+    if not path.is_file():
+        raise MissingDataFileError(path, "file not found")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataFileError(path, f"cannot read as UTF-8 text ({exc})") from None
+    lines = (line.strip() for line in text.splitlines())
+    return [line for line in lines if line]
+
+
+def read_json_file(path: str | Path) -> Any:
+    """Parse a JSON file; a missing or unreadable file raises :class:`DataFileError`."""
+    path = Path(path)
+    if not path.is_file():
+        raise MissingDataFileError(path, "file not found")
+    try:
+        return read_json(path)
+    except (OSError, ValueError) as exc:
+        reason = str(exc)
+        prefix = f"{path}: "
+        raise DataFileError(path, reason[len(prefix) :] if reason.startswith(prefix) else reason) from None
+
+
+def load_npy(path: str | Path) -> np.ndarray:
+    """Load a ``.npy`` array without admitting pickled objects."""
+    path = Path(path)
+    if not path.is_file():
+        raise MissingDataFileError(path, "file not found")
+    try:
+        array = np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        if "allow_pickle" in str(exc) or "pickle" in str(exc).lower():
+            raise DataFileError(
+                path, "holds pickled Python objects; refusing to load (expected a numeric array)"
+            ) from None
+        raise DataFileError(path, f"not a readable .npy array ({exc})") from None
+    except (OSError, EOFError) as exc:
+        raise DataFileError(path, f"not a readable .npy array ({exc})") from None
+    if not isinstance(array, np.ndarray):
+        raise DataFileError(path, f"expected a single .npy array, got {type(array).__name__}")
+    if not np.issubdtype(array.dtype, np.number):
+        raise DataFileError(path, f"expected a numeric array, got dtype {array.dtype}")
+    return array
+
+
+def audio_info(path: str | Path) -> tuple[int, int]:
+    """``(sample_rate, num_frames)`` of an audio file without decoding it."""
+    import soundfile as sf
+
+    path = Path(path)
+    if not path.is_file():
+        raise MissingDataFileError(path, "audio file not found")
+    if path.stat().st_size == 0:
+        raise DataFileError(path, "empty audio file (0 bytes)")
+    try:
+        info = sf.info(str(path))
+    except Exception as exc:  # libsndfile raises its own error types (LibsndfileError, RuntimeError)
+        raise DataFileError(path, f"cannot decode audio ({_sf_reason(exc)})") from None
+    return int(info.samplerate), int(info.frames)
+
+
+def _sf_reason(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+    return text.replace("Error opening", "error opening")
+
+
+def load_audio(
+    path: str | Path,
+    *,
+    sample_rate: int | None = None,
+    offset: float = 0.0,
+    duration: float | None = None,
+) -> tuple[np.ndarray, int]:
+    """Decode a mono float32 waveform in [-1, 1] (channels averaged), optionally resampled.
+
+    Only ``[offset, offset + duration)`` seconds are decoded (soundfile seeks, also in MP3s).
+    When the file ends before ``offset + duration`` the available part is returned; callers
+    compare lengths with :func:`check_length_match`.
+
+    Args:
+        path: wav / flac / ogg / mp3 file (anything libsndfile decodes).
+        sample_rate: target rate in Hz (soxr HQ resampling); ``None`` keeps the file's rate.
+        offset: start, seconds from the beginning of the file (>= 0).
+        duration: seconds to read (``None``: to the end).
+
+    Returns:
+        ``(audio (S,), sample_rate)``.
+
+    Raises:
+        MissingDataFileError: no such file.
+        DataFileError: undecodable or empty file, ``offset`` past the end, non-finite samples.
+    """
+    import soundfile as sf
+
+    path = Path(path)
+    if not path.is_file():
+        raise MissingDataFileError(path, "audio file not found")
+    if offset < 0:
+        raise DataFileError(path, f"negative audio offset {offset} s")
+    if path.stat().st_size == 0:
+        raise DataFileError(path, "empty audio file (0 bytes)")
+    try:
+        with sf.SoundFile(str(path)) as f:
+            sr = int(f.samplerate)
+            total = int(f.frames)
+            if total <= 0:
+                raise DataFileError(path, "empty audio (0 samples)")
+            start = int(round(offset * sr))
+            if start >= total:
+                raise DataFileError(
+                    path, f"audio is {total / sr:.2f} s long; cannot start reading at {offset:.2f} s"
+                )
+            count = total - start if duration is None else min(total - start, int(round(duration * sr)))
+            if start:
+                f.seek(start)
+            data = f.read(count, dtype="float32", always_2d=True)
+    except DataFileError:
+        raise
+    except Exception as exc:  # LibsndfileError / RuntimeError / ValueError from the decoder
+        raise DataFileError(path, f"cannot decode audio ({_sf_reason(exc)})") from None
+    if data.shape[0] == 0:
+        raise DataFileError(path, "empty audio (no samples could be decoded)")
+    audio = data.mean(axis=1, dtype=np.float32)
+    if not np.all(np.isfinite(audio)):
+        raise DataFileError(path, f"{int(np.count_nonzero(~np.isfinite(audio)))} non-finite audio samples")
+    if sample_rate is not None and int(sample_rate) != sr:
+        if sample_rate <= 0:
+            raise ValueError(f"sample_rate must be positive, got {sample_rate}")
+        from momu.features.audio import resample
+
+        audio = resample(audio, sr, int(sample_rate))
+        sr = int(sample_rate)
+    return np.ascontiguousarray(audio, dtype=np.float32), sr
+
+
+# --------------------------------------------------------------------------------- keypoints
+def skeleton_shape(name: str) -> tuple[int, int]:
+    """``(joints, dims)`` of a skeleton in :mod:`momu.features.skeletons`."""
+    from momu.features.skeletons import get_skeleton
+
+    skel = get_skeleton(name)
+    return len(skel.joint_names), int(skel.dims)
+
+
+def clean_keypoints(
+    keypoints: np.ndarray,
+    path: str | Path,
+    *,
+    joints: int,
+    dims: int,
+    max_gap: int | None,
+    missing: np.ndarray | None = None,
+) -> tuple[np.ndarray, int]:
+    """Validate ``(T, J, D)`` keypoints and fill missing ones from neighbouring frames (MoMu App. B.2).
+
+    Missing keypoints are the non-finite ones, plus those flagged in ``missing``. They are filled
+    by :func:`momu.features.preprocess.interpolate_missing` over gaps of at most ``max_gap``
+    frames; anything left unfilled is an error naming the file, the joint and the frame.
+
+    Args:
+        keypoints: the raw array.
+        path: the file it came from (for messages).
+        joints: expected ``J``.
+        dims: expected ``D`` (2 or 3).
+        max_gap: longest run of missing frames that may be interpolated (``None``: any).
+        missing: optional ``(T, J)`` bool, True where a keypoint is missing (e.g. zero confidence).
+
+    Returns:
+        ``(float32 keypoints (T, J, D), number of keypoints filled)``.
+    """
+    x = np.asarray(keypoints)
+    if x.ndim != 3 or x.shape[1] != joints or x.shape[2] != dims:
+        raise DataFileError(path, f"expected keypoints of shape (T, {joints}, {dims}), got {tuple(x.shape)}")
+    if x.shape[0] == 0:
+        raise DataFileError(path, "no frames")
+    x = x.astype(np.float32, copy=True)
+    gone = ~np.all(np.isfinite(x), axis=-1)
+    if missing is not None:
+        gone |= np.asarray(missing, dtype=bool)
+    n_missing = int(gone.sum())
+    if n_missing == 0:
+        return x, 0
+    never = np.flatnonzero(gone.all(axis=0))
+    if never.size:
+        raise DataFileError(
+            path,
+            f"NaN keypoints beyond what interpolation may fill: joint(s) {never.tolist()} "
+            "missing in every frame",
+        )
+    from momu.features.preprocess import interpolate_missing
+
+    x[gone] = np.nan
+    filled = np.asarray(interpolate_missing(x, max_gap=max_gap, on_long_gap="leave"), dtype=np.float32)
+    left = ~np.all(np.isfinite(filled), axis=-1)
+    if left.any():
+        frame, joint = (int(v) for v in np.argwhere(left)[0])
+        raise DataFileError(
+            path,
+            f"NaN keypoints beyond what interpolation may fill: {int(left.sum())} keypoint(s) in runs "
+            f"of more than max_gap={max_gap} missing frames (first: joint {joint}, frame {frame})",
+        )
+    return filled, n_missing
+
+
+def check_length_match(
+    path: str | Path, motion_seconds: float, audio_seconds: float, tolerance_seconds: float
+) -> None:
+    """Raise :class:`DataFileError` when motion and audio durations differ by more than the tolerance."""
+    gap = abs(motion_seconds - audio_seconds)
+    if gap > tolerance_seconds:
+        raise DataFileError(
+            path,
+            f"motion lasts {motion_seconds:.2f} s but its audio {audio_seconds:.2f} s: "
+            f"mismatch of {gap:.2f} s exceeds the tolerance of {tolerance_seconds:.2f} s",
+        )
+
+
+def crop_clip(clip: Clip, start: float, seconds: float) -> Clip:
+    """The part of ``clip`` in ``[start, start + seconds)`` seconds (motion, trajectory, audio, beats).
+
+    The per-frame arrays of ``meta`` named in :data:`PER_FRAME_META` are cropped with the motion;
+    ``meta["beat_times"]`` is shifted and filtered.
+
+    Raises:
+        ValueError: the clip is shorter than ``start + seconds`` (names the clip id).
+    """
+    if seconds <= 0 or start < 0:
+        raise ValueError(f"window must have start >= 0 and seconds > 0, got start={start}, seconds={seconds}")
+    if clip.duration + 1e-6 < start + seconds:
+        raise ValueError(
+            f"clip {clip.id!r} is {clip.duration:.2f} s long, shorter than the requested window "
+            f"[{start:.2f}, {start + seconds:.2f}) s"
+        )
+    meta = dict(clip.meta)
+    motion = clip.motion
+    trajectory = clip.trajectory
+    if motion is not None:
+        t0 = int(round(start * clip.fps))
+        n = int(round(seconds * clip.fps))
+        full = motion.shape[0]
+        motion = motion[t0 : t0 + n]
+        if trajectory is not None:
+            trajectory = trajectory[t0 : t0 + n]
+        for key in PER_FRAME_META:
+            value = clip.meta.get(key)
+            if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == full:
+                meta[key] = value[t0 : t0 + n]
+    audio = clip.audio
+    if audio is not None and clip.sample_rate:
+        s0 = int(round(start * clip.sample_rate))
+        audio = audio[s0 : s0 + int(round(seconds * clip.sample_rate))]
+    if "beat_times" in meta:
+        beats = np.asarray(meta["beat_times"], dtype=np.float64)
+        meta["beat_times"] = beats[(beats >= start) & (beats < start + seconds)] - start
+    meta["window"] = (float(start), float(start + seconds))
+    return dataclasses.replace(clip, motion=motion, trajectory=trajectory, audio=audio, meta=meta)
+
+
+def hash_split(item_id: str, ratios: Sequence[float] = (0.9, 0.05, 0.05), seed: int = 0) -> str:
+    """Deterministic train/val/test assignment of one id (MoMu §5: random 90%/5%/5% splits).
+
+    The id is hashed with the seed to a number in [0, 1), so the split of an item depends only on
+    its id and the seed, not on which other items exist or their order.
+    """
+    if len(ratios) != 3 or any(r < 0 for r in ratios) or not np.isclose(sum(ratios), 1.0):
+        raise ValueError(f"split ratios must be three non-negative numbers summing to 1, got {list(ratios)}")
+    digest = hashlib.sha256(f"{seed}:{item_id}".encode()).digest()
+    u = int.from_bytes(digest[:8], "big") / 2.0**64
+    if u < ratios[0]:
+        return "train"
+    if u < ratios[0] + ratios[1]:
+        return "val"
+    return "test"
+
+
+# ------------------------------------------------------------------------------- the base class
+class LazyClipDataset:
+    """A :class:`~momu.data.types.ClipDataset` that reads one item per index.
+
+    Subclasses fill ``self.items`` with :class:`ItemRef` and implement :meth:`load`; indexing
+    applies the configured window. Errors from :meth:`load` name the item's file.
+
+    Attributes:
+        name: the registry name.
+        root: the dataset folder.
+        items: one :class:`ItemRef` per clip, in a stable (sorted) order.
+    """
+
+    name = "dataset"
+
+    def __init__(self, cfg: LoaderConfig, root: Path, items: Iterable[ItemRef]) -> None:
+        self.cfg = cfg
+        self.root = root
+        self.items: list[ItemRef] = list(items)
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __getitem__(self, index: int) -> Clip:
+        if not isinstance(index, (int, np.integer)):
+            raise TypeError(f"{self.name}: index must be an int, got {type(index).__name__}")
+        n = len(self.items)
+        if not -n <= index < n:
+            raise IndexError(f"{self.name}: index {index} out of range for {n} items")
+        ref = self.items[int(index)]
+        clip = self.load(ref)
+        window = self.cfg.window_seconds
+        if window is not None:
+            try:
+                clip = crop_clip(clip, self.cfg.window_offset_seconds, window)
+            except ValueError as exc:
+                raise DataFileError(ref.path, str(exc)) from None
+        return clip
+
+    @property
+    def ids(self) -> list[str]:
+        return [ref.id for ref in self.items]
+
+    def load(self, ref: ItemRef) -> Clip:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(root={str(self.root)!r}, split={self.cfg.split!r}, items={len(self)})"
+
+
+def sorted_items(refs: Iterable[ItemRef], keep: Callable[[ItemRef], bool]) -> list[ItemRef]:
+    """The refs ``keep`` accepts, sorted by id (a stable order across file systems)."""
+    return sorted((r for r in refs if keep(r)), key=lambda r: r.id)
