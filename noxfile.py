@@ -47,8 +47,12 @@ def plugins(session: nox.Session) -> None:
     """Install the example plugin next to momu; run its tests and the core's plugin-discovery tests."""
     _install(session, "test", plugin=True)
     session.run(
-        "pytest", f"{PLUGIN}/tests", "tests/unit/test_registry.py", "tests/integration/test_plugin_installed.py",
-        *session.posargs, env=TEST_ENV,
+        "pytest",
+        f"{PLUGIN}/tests",
+        "tests/unit/test_registry.py",
+        "tests/integration/test_plugin_installed.py",
+        *session.posargs,
+        env=TEST_ENV,
     )
 
 

@@ -220,8 +220,7 @@ class Registry(Generic[T]):
         ep = self._entry_points().get(name)
         if ep is None:
             raise RegistryError(
-                f"unknown {singular(self.kind)} '{name}'; "
-                f"valid names: {', '.join(self.names()) or '(none)'}"
+                f"unknown {singular(self.kind)} '{name}'; valid names: {', '.join(self.names()) or '(none)'}"
             )
         return self._load_plugin(name, ep)
 
@@ -245,7 +244,7 @@ class Registry(Generic[T]):
                     )
             raise PluginError(
                 f"{_describe(ep)} of {source} imported but registered no {self.kind} part named "
-                f"'{name}' (decorate the factory with @momu.registry.{self.kind.upper()}.register('{name}', ...))"
+                f"'{name}' (decorate its factory with momu.registry.{self.kind.upper()}.register('{name}'))"
             )
         if entry.source != source:  # the entry point's distribution is the authoritative source
             entry = dataclasses.replace(entry, source=source)
@@ -288,7 +287,8 @@ DATASETS: Registry[Any] = Registry("datasets", "momu.data")
 METHODS: Registry[Any] = Registry("methods", "momu.methods")
 
 REGISTRIES: dict[str, Registry[Any]] = {
-    r.kind: r for r in (ENCODERS, BACKBONES, LOSSES, SAMPLERS, SCHEDULERS, VOCODERS, METRICS, DATASETS, METHODS)
+    r.kind: r
+    for r in (ENCODERS, BACKBONES, LOSSES, SAMPLERS, SCHEDULERS, VOCODERS, METRICS, DATASETS, METHODS)
 }
 KINDS: tuple[str, ...] = tuple(REGISTRIES)
 

@@ -40,7 +40,9 @@ def test_list_one_kind(capsys: pytest.CaptureFixture[str], cli_net: None) -> Non
     assert out.startswith("backbones (") and "metrics (" not in out
 
 
-def test_config_show_prints_resolved_config(tmp_path: Path, capsys: pytest.CaptureFixture[str], cli_net: None) -> None:
+def test_config_show_prints_resolved_config(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], cli_net: None
+) -> None:
     path = tmp_path / "run.yaml"
     path.write_text("backbone: clitest_net\ntrain:\n  lr: 0.1\n")
     assert main(["config", "show", str(path), "backbone.depth=6"]) == 0

@@ -72,7 +72,9 @@ def test_defaults_are_filled_and_config_is_frozen() -> None:
 def test_misspelled_key_names_the_valid_keys() -> None:
     with pytest.raises(ConfigError) as err:
         load_config({"backbone": {"name": "cfgtest_net_a"}}, ["backbone.depht=4"])
-    assert str(err.value) == "backbone.depht: unknown key for backbone 'cfgtest_net_a'; valid keys: depth, width"
+    assert (
+        str(err.value) == "backbone.depht: unknown key for backbone 'cfgtest_net_a'; valid keys: depth, width"
+    )
 
 
 def test_wrong_type_names_the_key() -> None:
@@ -98,11 +100,19 @@ def test_dotted_override_sets_one_param_and_parses_types() -> None:
 
 
 def test_nested_components_are_validated() -> None:
-    cfg = load_config({"method": {"name": "cfgtest_pipe", "backbone": {"name": "cfgtest_net_b", "levels": 5}}})
+    cfg = load_config(
+        {"method": {"name": "cfgtest_pipe", "backbone": {"name": "cfgtest_net_b", "levels": 5}}}
+    )
     assert cfg.method.backbone.levels == 5 and cfg.method.steps == 10
     defaults = load_config({"method": "cfgtest_pipe"})
-    assert OmegaConf.to_container(defaults.method.backbone) == {"name": "cfgtest_net_a", "depth": 2, "width": 16}
-    with pytest.raises(ConfigError, match=r"method.backbone.levles: unknown key for backbone 'cfgtest_net_b'"):
+    assert OmegaConf.to_container(defaults.method.backbone) == {
+        "name": "cfgtest_net_a",
+        "depth": 2,
+        "width": 16,
+    }
+    with pytest.raises(
+        ConfigError, match=r"method.backbone.levles: unknown key for backbone 'cfgtest_net_b'"
+    ):
         load_config({"method": {"name": "cfgtest_pipe", "backbone": {"name": "cfgtest_net_b", "levles": 1}}})
 
 

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from tests.helpers.fake_dist import install_fake_dist
 
 from momu.registry import KINDS, PluginError, Registry, RegistryError, registry_for
-from tests.helpers.fake_dist import install_fake_dist
 
 
 @dataclass
@@ -75,7 +75,15 @@ def test_config_must_be_a_dataclass() -> None:
 
 def test_all_nine_kinds_exist() -> None:
     assert set(KINDS) == {
-        "encoders", "backbones", "losses", "samplers", "schedulers", "vocoders", "metrics", "datasets", "methods",
+        "encoders",
+        "backbones",
+        "losses",
+        "samplers",
+        "schedulers",
+        "vocoders",
+        "metrics",
+        "datasets",
+        "methods",
     }
     with pytest.raises(RegistryError, match="valid kinds"):
         registry_for("widgets")
@@ -165,7 +173,9 @@ def test_broken_plugin_is_isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert main(["list", "backbones"]) == 0
 
 
-def test_entry_point_that_registers_nothing_is_reported(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_entry_point_that_registers_nothing_is_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     install_fake_dist(
         tmp_path / "site",
         monkeypatch,

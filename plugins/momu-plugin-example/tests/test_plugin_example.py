@@ -18,7 +18,9 @@ def test_parts_are_discovered_with_their_distribution() -> None:
 
 
 def test_backbone_follows_the_protocol() -> None:
-    cfg = load_config({"backbone": {"name": "residual_mlp", "in_channels": 6, "cond_channels": 4, "hidden": 32}})
+    cfg = load_config(
+        {"backbone": {"name": "residual_mlp", "in_channels": 6, "cond_channels": 4, "hidden": 32}}
+    )
     net = build_component(cfg.backbone, "backbones")
     x, t, cond = torch.randn(3, 10, 6), torch.tensor([0, 10, 999]), torch.randn(3, 7, 4)
     out = net(x, t, cond)

@@ -110,8 +110,7 @@ def _validate_component(node: Any, kind: str, path: str) -> dict[str, Any]:
         raise ConfigError(f"{path}: expected a {singular(kind)} name or {{name: ..., params}}, got {node!r}")
     params = {k: v for k, v in node.items() if k != "name"}
     entry = _entry(kind, node.get("name"), path)
-    merged = OmegaConf.to_container(_merge_params(entry, params, path), resolve=True)
-    assert isinstance(merged, dict)
+    merged: Any = OmegaConf.to_container(_merge_params(entry, params, path), resolve=True)
     return {"name": entry.name, **_validate_tree(merged, path)}
 
 
@@ -163,16 +162,17 @@ def _parse_override(text: str) -> tuple[str, Any]:
     key, raw = text.split("=", 1)
     key = key.strip().lstrip("+")
     try:
-        value = OmegaConf.to_container(OmegaConf.from_dotlist([f"v={raw}"]))["v"]  # type: ignore[index]
+        parsed: Any = OmegaConf.to_container(OmegaConf.from_dotlist([f"v={raw}"]))
+        value = parsed["v"]
     except OmegaConfBaseException as exc:
         raise ConfigError(f"override {text!r}: cannot parse value: {exc}") from None
     return key, value
 
 
 def _expand_bare_names(tree: Any) -> Any:
-    """Turn bare-name component nodes (``backbone: dit``) into ``{name: dit}`` so params can be set on them."""
+    """Turn bare-name component nodes (``backbone: dit``) into ``{name: dit}`` so params can be set."""
     if isinstance(tree, Mapping):
-        out = {}
+        out: dict[Any, Any] = {}
         for key, value in tree.items():
             found = component_kind(str(key))
             if found is not None and not found[1] and isinstance(value, str):

@@ -37,12 +37,18 @@ class ResidualMLP(nn.Module):
         self.max_length = None
         self.hidden = cfg.hidden
         self.inp = nn.Linear(cfg.in_channels, cfg.hidden)
-        self.time = nn.Sequential(nn.Linear(cfg.hidden, cfg.hidden), nn.SiLU(), nn.Linear(cfg.hidden, cfg.hidden))
+        self.time = nn.Sequential(
+            nn.Linear(cfg.hidden, cfg.hidden), nn.SiLU(), nn.Linear(cfg.hidden, cfg.hidden)
+        )
         self.cond = nn.Linear(cfg.cond_channels, cfg.hidden) if cfg.cond_channels else None
         self.null_cond = nn.Parameter(torch.zeros(cfg.hidden)) if cfg.cond_channels else None
         self.blocks = nn.ModuleList(
-            nn.Sequential(nn.LayerNorm(cfg.hidden), nn.Linear(cfg.hidden, cfg.hidden), nn.SiLU(),
-                          nn.Linear(cfg.hidden, cfg.hidden))
+            nn.Sequential(
+                nn.LayerNorm(cfg.hidden),
+                nn.Linear(cfg.hidden, cfg.hidden),
+                nn.SiLU(),
+                nn.Linear(cfg.hidden, cfg.hidden),
+            )
             for _ in range(cfg.depth)
         )
         self.out = nn.Linear(cfg.hidden, cfg.in_channels)
@@ -65,7 +71,9 @@ class ResidualMLP(nn.Module):
             if cond is None:
                 pooled = self.null_cond.expand(x.shape[0], -1)
             else:
-                weights = torch.ones(cond.shape[:2], device=cond.device) if cond_mask is None else cond_mask.float()
+                weights = (
+                    torch.ones(cond.shape[:2], device=cond.device) if cond_mask is None else cond_mask.float()
+                )
                 mean = (cond * weights[..., None]).sum(1) / weights.sum(1, keepdim=True).clamp_min(1.0)
                 pooled = self.cond(mean)
                 if drop_cond is not None:

@@ -26,7 +26,9 @@ class MotionJerk:
     def __init__(self, cfg: MotionJerkConfig) -> None:
         self.cfg = cfg
 
-    def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> dict[str, float]:
+    def __call__(
+        self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None
+    ) -> dict[str, float]:
         values = []
         for clip in generated:
             if clip.motion is None:

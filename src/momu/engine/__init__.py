@@ -1,0 +1,16 @@
+"""The accelerate training/evaluation engine shared by every method and recipe."""
+
+from momu.engine.accelerate_setup import TRACKERS, RunConfig, make_accelerator
+from momu.engine.evaluate import map_gathered
+from momu.engine.trainer import Preempted, TrainConfig, steps_per_epoch, train_stage
+
+__all__ = [
+    "TRACKERS",
+    "Preempted",
+    "RunConfig",
+    "TrainConfig",
+    "make_accelerator",
+    "map_gathered",
+    "steps_per_epoch",
+    "train_stage",
+]

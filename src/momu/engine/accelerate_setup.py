@@ -1,0 +1,68 @@
+"""Creating the run's one :class:`accelerate.Accelerator` and its trackers."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from accelerate import Accelerator
+from accelerate.utils import DataLoaderConfiguration, GradientAccumulationPlugin
+
+__all__ = ["RunConfig", "make_accelerator", "TRACKERS"]
+
+TRACKERS = ("wandb", "none")
+
+
+@dataclass
+class RunConfig:
+    """Process-level settings of a run.
+
+    Attributes:
+        mixed_precision: ``no``, ``fp16`` or ``bf16`` (bf16/fp16 need a GPU that supports them).
+        tracker: ``wandb`` (offline unless ``WANDB_MODE``/``wandb login`` says otherwise) or ``none``.
+        project: tracker project name.
+        seed: base seed; the data order uses it as is, noise uses ``seed + process index``.
+    """
+
+    mixed_precision: str = "no"
+    tracker: str = "wandb"
+    project: str = "momu"
+    seed: int = 0
+
+
+def make_accelerator(
+    cfg: RunConfig, out_dir: Path, run_name: str, tracked_config: dict[str, Any]
+) -> Accelerator:
+    """The run's accelerator: seedable data order, step-counted accumulation, trackers started.
+
+    wandb runs offline by default (``WANDB_MODE=offline``) so nothing leaves the machine unless
+    the user sets ``WANDB_MODE=online``; ``tracker="none"`` disables tracking.
+    """
+    if cfg.tracker not in TRACKERS:
+        raise ValueError(f"tracker must be one of {', '.join(TRACKERS)}, got {cfg.tracker!r}")
+    if cfg.mixed_precision not in {"no", "fp16", "bf16"}:
+        raise ValueError(f"mixed_precision must be no, fp16 or bf16, got {cfg.mixed_precision!r}")
+    log_with = None
+    if cfg.tracker == "wandb":
+        os.environ.setdefault("WANDB_MODE", "offline")
+        os.environ.setdefault("WANDB_DIR", str(out_dir))
+        log_with = "wandb"
+    # Several processes without CUDA: accelerate only forms the (gloo) process group when told
+    # the run is on CPU; otherwise each process would silently train alone.
+    multi_process_cpu = int(os.environ.get("WORLD_SIZE", "1")) > 1 and not torch.cuda.is_available()
+    accelerator = Accelerator(
+        cpu=multi_process_cpu,
+        mixed_precision=cfg.mixed_precision,
+        log_with=log_with,
+        project_dir=str(out_dir),
+        dataloader_config=DataLoaderConfiguration(use_seedable_sampler=True, data_seed=cfg.seed),
+        gradient_accumulation_plugin=GradientAccumulationPlugin(num_steps=1, sync_with_dataloader=False),
+    )
+    if log_with is not None:
+        accelerator.init_trackers(
+            cfg.project, config=tracked_config, init_kwargs={"wandb": {"name": run_name}}
+        )
+    return accelerator

@@ -1,0 +1,262 @@
+"""The one training loop every method uses, on one CPU, N processes, or a multi-GPU node.
+
+A method hands the loop a *stage*: the module to train, a dataset, a collate function and a
+loss function. The loop owns everything else: accelerate ``prepare`` (once), gradient
+accumulation, mixed precision, gradient clipping, per-process seeding, progress bars on the main
+process, tracker logging, checkpoints every ``checkpoint_every`` steps, exact resume, and a
+checkpoint on SIGTERM (cluster pre-emption) before exiting.
+
+Resume is exact: a run interrupted after step ``k`` and resumed from its checkpoint ends with the
+same weights as an uninterrupted run, because the checkpoint holds the model, the optimizer, every
+process's RNG states and the step, and the data order of epoch ``e`` is a pure function of
+``(seed, e)`` (accelerate's seedable sampler), so the resumed run skips the batches already seen.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import shutil
+import signal
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from accelerate import Accelerator
+from accelerate.utils import set_seed
+from torch import nn
+from torch.utils.data import DataLoader, Dataset
+from tqdm.auto import tqdm
+
+from momu.engine.state import (
+    capture_rng,
+    latest_checkpoint,
+    load_tensors_and_json,
+    prune_checkpoints,
+    restore_rng,
+    save_tensors_and_json,
+)
+from momu.io import read_json, write_json
+
+__all__ = ["TrainConfig", "Preempted", "LossFn", "train_stage"]
+
+log = logging.getLogger(__name__)
+
+LossFn = Callable[[nn.Module, Any], "torch.Tensor | tuple[torch.Tensor, dict[str, float]]"]
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation settings of one training stage (every field is a config key).
+
+    ``batch_size`` is per process: the effective batch is
+    ``batch_size × num_processes × grad_accum``.
+    """
+
+    steps: int = 1000
+    batch_size: int = 16
+    lr: float = 1e-4
+    weight_decay: float = 0.0
+    beta1: float = 0.9
+    beta2: float = 0.999
+    grad_accum: int = 1
+    max_grad_norm: float = 1.0  # 0 disables clipping
+    warmup_steps: int = 0  # linear warm-up of the learning rate
+    checkpoint_every: int = 0  # 0: checkpoint only at the end and on SIGTERM
+    keep_checkpoints: int = 2  # newest checkpoints kept (0 keeps all)
+    log_every: int = 25
+    seed: int = 0
+    num_workers: int = 0
+
+
+class Preempted(RuntimeError):
+    """Raised after a SIGTERM once the checkpoint is written; resume with ``--resume``."""
+
+    def __init__(self, checkpoint: Path) -> None:
+        super().__init__(f"stopped by SIGTERM; checkpoint written to {checkpoint}; rerun with --resume")
+        self.checkpoint = checkpoint
+
+
+@contextmanager
+def _sigterm_flag() -> Iterator[dict[str, bool]]:
+    """Catch SIGTERM while training; the loop checks the flag after each optimizer step."""
+    flag = {"stop": False}
+
+    def handler(signum: int, frame: Any) -> None:
+        flag["stop"] = True
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield flag
+        return
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _any_process(accelerator: Accelerator, value: bool) -> bool:
+    if accelerator.num_processes == 1:
+        return value
+    flag = torch.tensor([1.0 if value else 0.0], device=accelerator.device)
+    return bool(accelerator.reduce(flag, reduction="sum").item() > 0)
+
+
+def _save(
+    accelerator: Accelerator, root: Path, step: int, model: nn.Module, optimizer: Any, cfg: TrainConfig
+) -> Path:
+    """Write checkpoint ``step`` under ``root`` (all processes take part)."""
+    final = root / f"step_{step:08d}"
+    staging = root / f".staging_{step:08d}"
+    if accelerator.is_main_process:
+        shutil.rmtree(staging, ignore_errors=True)
+        staging.mkdir(parents=True)
+    accelerator.wait_for_everyone()
+    save_tensors_and_json(staging, f"rng_{accelerator.process_index}", capture_rng())
+    if accelerator.is_main_process:
+        save_tensors_and_json(staging, "model", accelerator.unwrap_model(model).state_dict())
+        save_tensors_and_json(staging, "optimizer", optimizer.state_dict())
+        write_json(staging / "trainer.json", {"step": step, "num_processes": accelerator.num_processes})
+    accelerator.wait_for_everyone()
+    if accelerator.is_main_process:
+        shutil.rmtree(final, ignore_errors=True)
+        staging.rename(final)
+        prune_checkpoints(root, cfg.keep_checkpoints)
+    accelerator.wait_for_everyone()
+    return final
+
+
+def _load(accelerator: Accelerator, checkpoint: Path, model: nn.Module, optimizer: Any) -> int:
+    meta = read_json(checkpoint / "trainer.json")
+    if meta["num_processes"] != accelerator.num_processes:
+        raise ValueError(
+            f"{checkpoint} was written by {meta['num_processes']} processes; resuming needs the same number "
+            f"(this run has {accelerator.num_processes})"
+        )
+    accelerator.unwrap_model(model).load_state_dict(load_tensors_and_json(checkpoint, "model"), strict=True)
+    optimizer.load_state_dict(load_tensors_and_json(checkpoint, "optimizer"))
+    restore_rng(load_tensors_and_json(checkpoint, f"rng_{accelerator.process_index}"))
+    return int(meta["step"])
+
+
+def _warmup(step: int, warmup_steps: int) -> float:
+    return min(1.0, (step + 1) / warmup_steps) if warmup_steps > 0 else 1.0
+
+
+def train_stage(
+    accelerator: Accelerator,
+    *,
+    name: str,
+    model: nn.Module,
+    dataset: Dataset[Any],
+    loss_fn: LossFn,
+    cfg: TrainConfig,
+    checkpoint_root: Path,
+    collate_fn: Callable[[list[Any]], Any] | None = None,
+    resume: bool = False,
+) -> nn.Module:
+    """Train ``model`` on ``dataset`` for ``cfg.steps`` optimizer steps and return it unwrapped.
+
+    Args:
+        accelerator: the run's accelerator (created once per run with the gradient-accumulation
+            plugin from :func:`momu.engine.make_accelerator`).
+        name: stage name used in logs, progress bars and tracker keys.
+        loss_fn: ``loss_fn(model, batch)`` returning the loss, or ``(loss, logs)``.
+        checkpoint_root: folder of this stage's checkpoints (``step_<n>/``).
+        resume: continue from the newest checkpoint under ``checkpoint_root`` if there is one.
+
+    Raises:
+        Preempted: SIGTERM arrived; a checkpoint was written first.
+        ValueError: the dataset is smaller than one batch per process.
+    """
+    per_step = cfg.batch_size * accelerator.num_processes
+    if len(dataset) < per_step:  # type: ignore[arg-type]
+        raise ValueError(
+            f"stage {name!r}: dataset has {len(dataset)} items, fewer than one batch "  # type: ignore[arg-type]
+            f"({cfg.batch_size} per process × {accelerator.num_processes} processes)"
+        )
+    set_seed(cfg.seed, device_specific=True)  # seed + process index: distinct noise per process
+    params = [p for p in model.parameters() if p.requires_grad]
+    optimizer = torch.optim.AdamW(
+        params, lr=cfg.lr, betas=(cfg.beta1, cfg.beta2), weight_decay=cfg.weight_decay
+    )
+    loader = DataLoader(
+        dataset,
+        batch_size=cfg.batch_size,
+        shuffle=True,
+        drop_last=True,
+        collate_fn=collate_fn,
+        num_workers=cfg.num_workers,
+        # Its own generator: creating an iterator must not draw from the global RNG, or a run
+        # resumed mid-epoch would see different noise from the uninterrupted one.
+        generator=torch.Generator().manual_seed(cfg.seed),
+    )
+    model, optimizer, loader = accelerator.prepare(model, optimizer, loader)
+    accelerator.gradient_accumulation_steps = cfg.grad_accum
+    accelerator.step = 0  # accumulation boundaries count from this stage's first micro-batch
+
+    step = 0
+    checkpoint = latest_checkpoint(checkpoint_root) if resume else None
+    if checkpoint is not None:
+        step = _load(accelerator, checkpoint, model, optimizer)
+        log.info("stage %s: resumed from %s (step %d)", name, checkpoint, step)
+
+    batches = len(loader)
+    micro = step * cfg.grad_accum
+    epoch, skip = divmod(micro, batches)
+    bar = tqdm(
+        total=cfg.steps, initial=step, desc=name, disable=not accelerator.is_local_main_process, leave=False
+    )
+    model.train()
+    running: dict[str, float] = {}
+    with _sigterm_flag() as flag:
+        while step < cfg.steps:
+            sampler = getattr(loader, "set_epoch", None)
+            if sampler is not None:
+                loader.set_epoch(epoch)
+            batch_iter = accelerator.skip_first_batches(loader, skip) if skip else loader
+            for batch in batch_iter:
+                for group in optimizer.param_groups:
+                    group["lr"] = cfg.lr * _warmup(step, cfg.warmup_steps)
+                with accelerator.accumulate(model):
+                    out = loss_fn(model, batch)
+                    loss, logs = out if isinstance(out, tuple) else (out, {})
+                    if not torch.isfinite(loss):
+                        raise FloatingPointError(f"stage {name!r}: loss is {loss.item()} at step {step}")
+                    accelerator.backward(loss)
+                    if accelerator.sync_gradients and cfg.max_grad_norm > 0:
+                        accelerator.clip_grad_norm_(params, cfg.max_grad_norm)
+                    optimizer.step()
+                    optimizer.zero_grad(set_to_none=True)
+                if not accelerator.sync_gradients:
+                    continue
+                step += 1
+                bar.update(1)
+                for key, value in {"loss": float(loss.detach()), **logs}.items():
+                    running[key] = running.get(key, 0.0) + float(value)
+                if step % cfg.log_every == 0 or step == cfg.steps:
+                    count = cfg.log_every if step % cfg.log_every == 0 else step % cfg.log_every
+                    means = {f"{name}/{k}": v / count for k, v in running.items()}
+                    accelerator.log(means, step=step)
+                    bar.set_postfix(loss=f"{means[f'{name}/loss']:.4g}")
+                    running = {}
+                if _any_process(accelerator, flag["stop"]):
+                    raise Preempted(_save(accelerator, checkpoint_root, step, model, optimizer, cfg))
+                if cfg.checkpoint_every and step % cfg.checkpoint_every == 0 and step < cfg.steps:
+                    _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
+                if step >= cfg.steps:
+                    break
+            epoch, skip = epoch + 1, 0
+    bar.close()
+    _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
+    model.eval()
+    return accelerator.unwrap_model(model)
+
+
+def steps_per_epoch(dataset_size: int, cfg: TrainConfig, num_processes: int) -> int:
+    """Optimizer steps in one pass over the data (for choosing ``steps``)."""
+    return max(1, math.floor(dataset_size / (cfg.batch_size * num_processes)) // cfg.grad_accum)
