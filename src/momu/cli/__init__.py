@@ -21,6 +21,7 @@ __all__ = ["main", "build_parser"]
 SUBCOMMAND_MODULES: tuple[str, ...] = (
     "momu.cli.parts",
     "momu.cli.config_cmd",
+    "momu.cli.data_cmd",
     "momu.cli.eval_cmd",
 )
 

@@ -1,0 +1,273 @@
+"""``synth_dance``: the built-in procedural dataset of paired music and dance (issue 3 §1).
+
+Clip ``i`` of a configuration is a pure function of ``(cfg, i)``: its generator is seeded by
+``SeedSequence([cfg.seed, i])``, its style is ``cfg.styles[i % len(cfg.styles)]`` and its split
+is fixed by ``i`` (see :func:`split_of`), so clip ``i`` is the same whatever ``num_clips`` is.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from momu.data.synth.motion import (
+    Camera,
+    beat_phase,
+    choose_keys,
+    ease_keys,
+    pose,
+    project,
+    segment_rotations,
+    smooth_noise,
+)
+from momu.data.synth.music import beat_grid, render_music
+from momu.data.synth.styles import STYLE_NAMES, get_style
+from momu.data.types import Clip
+from momu.features.skeletons import SKELETON_NAMES, get_skeleton
+
+__all__ = [
+    "CameraConfig",
+    "SynthConfig",
+    "SynthDance",
+    "generate_clip",
+    "split_of",
+    "SPLITS",
+    "DEFAULT_STYLES",
+]
+
+log = logging.getLogger(__name__)
+
+SPLITS: tuple[str, ...] = ("train", "val", "test")
+# Split of block b = i // len(styles) is _SPLIT_CYCLE[b % 10]: 80/10/10 per ten blocks, every style in
+# every split, and the first three blocks already cover all splits.
+_SPLIT_CYCLE: tuple[str, ...] = ("train", "val", "test") + ("train",) * 7
+DEFAULT_STYLES: tuple[str, ...] = ("ballet", "hiphop", "zumba")
+
+
+@dataclass
+class CameraConfig:
+    """Virtual camera of 2D skeletons (``openpose14``): pixels, origin top-left, v down.
+
+    The dancer (rest orientation facing the camera) stands at the origin; the camera sits
+    ``distance`` metres away on +Z at ``height_m`` metres; ``focal_px`` is in pixels (a 1.7 m
+    dancer at 5 m is about 370 px tall).
+    """
+
+    width: int = 1280
+    height: int = 720
+    focal_px: float = 1100.0
+    distance: float = 5.0
+    height_m: float = 1.0
+
+
+@dataclass
+class SynthConfig:
+    """Configuration of ``synth_dance``.
+
+    Attributes:
+        num_clips: number of clips (all splits together).
+        min_seconds, max_seconds: clip duration range in seconds; each clip draws uniformly
+            (MoMu uses 10-30 s clips, LORIS 25 / 50 s).
+        fps: motion frame rate; ``None`` = the skeleton's usual rate (60 for smpl24/openpose14,
+            25 for dwm21).
+        sample_rate: audio sample rate in Hz (mono; MoMu and MoFusion use 16 kHz).
+        skeleton: joint layout (:mod:`momu.features.skeletons`): ``smpl24`` (3D, metres),
+            ``openpose14`` (2D pixels), ``dwm21`` (3D, metres), or any other registered layout.
+        styles: styles to cycle through (``ballet``, ``hiphop``, ``zumba``, ``techno``).
+        seed: dataset seed.
+        phase_jitter: standard deviation (seconds) of each motion beat's offset from its music beat.
+        motion_noise: standard deviation (radians) of smooth noise added to every joint angle.
+        noise_smoothing: time constant (seconds) of that noise's Gaussian smoothing.
+        amplitude_range: range of the per-move amplitude factor applied to key poses.
+        audio_noise: standard deviation of white noise added to the music (peak 0.85).
+        trajectory_radius: the dancer's steps stay within this many metres of the origin
+            (0 = dance in place).
+        root_centred: store motion relative to the root joint and the root's path in
+            ``Clip.trajectory`` (3D skeletons only; DwM's convention).
+        camera: virtual camera for 2D skeletons.
+    """
+
+    num_clips: int = 64
+    min_seconds: float = 10.0
+    max_seconds: float = 10.0
+    fps: float | None = None
+    sample_rate: int = 16000
+    skeleton: str = "smpl24"
+    styles: list[str] = field(default_factory=lambda: list(DEFAULT_STYLES))
+    seed: int = 0
+    phase_jitter: float = 0.02
+    motion_noise: float = 0.01
+    noise_smoothing: float = 0.05
+    amplitude_range: list[float] = field(default_factory=lambda: [0.75, 1.25])
+    audio_noise: float = 0.005
+    trajectory_radius: float = 1.0
+    root_centred: bool = False
+    camera: CameraConfig = field(default_factory=CameraConfig)
+
+
+def validate_config(cfg: SynthConfig) -> None:
+    """Raise ``ValueError`` naming the first invalid field of ``cfg``."""
+    if cfg.num_clips < 0:
+        raise ValueError(f"num_clips must be >= 0, got {cfg.num_clips}")
+    if not 0 < cfg.min_seconds <= cfg.max_seconds:
+        raise ValueError(f"need 0 < min_seconds <= max_seconds, got {cfg.min_seconds} and {cfg.max_seconds}")
+    if cfg.fps is not None and not cfg.fps > 0:
+        raise ValueError(f"fps must be positive, got {cfg.fps}")
+    if cfg.sample_rate < 4000:
+        raise ValueError(f"sample_rate must be at least 4000 Hz, got {cfg.sample_rate}")
+    if cfg.skeleton not in SKELETON_NAMES:
+        raise ValueError(f"unknown skeleton {cfg.skeleton!r}; valid: {', '.join(SKELETON_NAMES)}")
+    if not cfg.styles:
+        raise ValueError("styles must name at least one style")
+    bad = [s for s in cfg.styles if s not in STYLE_NAMES]
+    if bad:
+        raise ValueError(f"unknown styles {bad}; valid: {', '.join(STYLE_NAMES)}")
+    for name in ("phase_jitter", "motion_noise", "noise_smoothing", "audio_noise", "trajectory_radius"):
+        if getattr(cfg, name) < 0:
+            raise ValueError(f"{name} must be >= 0, got {getattr(cfg, name)}")
+    lo, hi = (list(cfg.amplitude_range) + [None, None])[:2]
+    if len(cfg.amplitude_range) != 2 or lo is None or hi is None or not 0 <= lo <= hi:
+        raise ValueError(
+            f"amplitude_range must be [low, high] with 0 <= low <= high, got {cfg.amplitude_range}"
+        )
+    if cfg.root_centred and get_skeleton(cfg.skeleton).dims == 2:
+        raise ValueError("root_centred applies to 3D skeletons only")
+
+
+def resolved_fps(cfg: SynthConfig) -> float:
+    """The motion frame rate: ``cfg.fps`` or the skeleton's usual rate."""
+    return float(cfg.fps) if cfg.fps is not None else get_skeleton(cfg.skeleton).fps
+
+
+def split_of(index: int, num_styles: int) -> str:
+    """Split (``train``/``val``/``test``) of clip ``index`` when cycling through ``num_styles`` styles."""
+    return _SPLIT_CYCLE[(index // max(num_styles, 1)) % len(_SPLIT_CYCLE)]
+
+
+def _clip_rng(seed: int, index: int) -> np.random.Generator:
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), int(index)])))
+
+
+def generate_clip(cfg: SynthConfig, index: int) -> Clip:
+    """Generate clip ``index`` of ``cfg`` (deterministic; independent of ``cfg.num_clips``).
+
+    Returns a :class:`Clip` with ``motion`` ``(T, J, D)`` float32 (metres for 3D, pixels for 2D),
+    ``audio`` ``(S,)`` float32 at ``cfg.sample_rate`` with ``S = round(T / fps * sample_rate)``,
+    ``style``, and ``meta`` holding ``beat_times`` / ``downbeat_times`` (music beats, seconds),
+    ``motion_beat_times`` (the jittered beats the motion follows), ``bpm``, ``beats_per_bar``,
+    ``split`` and ``index``.
+    """
+    if index < 0:
+        raise IndexError(f"clip index must be >= 0, got {index}")
+    skeleton = get_skeleton(cfg.skeleton)
+    style = get_style(cfg.styles[index % len(cfg.styles)])
+    fps = resolved_fps(cfg)
+    rng = _clip_rng(cfg.seed, index)
+
+    duration = float(rng.uniform(cfg.min_seconds, cfg.max_seconds))
+    num_frames = max(2, int(round(duration * fps)))
+    duration = num_frames / fps
+    num_samples = int(round(duration * cfg.sample_rate))
+
+    bpm = float(rng.uniform(*style.bpm))
+    period = 60.0 / bpm
+    first_beat = float(rng.uniform(0.1, 0.1 + period))
+    first_index = int(rng.integers(style.beats_per_bar))
+    grid = beat_grid(first_beat, period, duration, style.beats_per_bar, first_index)
+
+    # Motion beats: the music grid extended one beat before and two after, each jittered.
+    k = np.arange(-1, grid["beats"].size + 2)
+    jitter = np.clip(rng.normal(0.0, cfg.phase_jitter, k.size), -0.3 * period, 0.3 * period)
+    motion_beats = first_beat + k * period + jitter
+    poses, root = choose_keys(
+        style, k.size, rng, amplitude_range=cfg.amplitude_range, radius=cfg.trajectory_radius
+    )
+    times = np.arange(num_frames) / fps
+    phase = beat_phase(times, motion_beats)
+    controls = ease_keys(np.concatenate([poses, root], axis=1), phase)
+    controls[:, : poses.shape[1]] += smooth_noise(
+        rng, (num_frames, poses.shape[1]), cfg.motion_noise, cfg.noise_smoothing * fps
+    )
+    segs = segment_rotations(controls[:, : poses.shape[1]], controls[:, poses.shape[1]])
+    positions = pose(skeleton, segs, controls[:, poses.shape[1] + 1 :])
+
+    audio = render_music(style, grid, first_index, num_samples, cfg.sample_rate, rng, noise=cfg.audio_noise)
+
+    trajectory = None
+    if skeleton.dims == 2:
+        cam = cfg.camera
+        motion = project(positions, Camera(cam.width, cam.height, cam.focal_px, cam.distance, cam.height_m))
+    elif cfg.root_centred:
+        trajectory = positions[:, skeleton.root].astype(np.float32)
+        motion = positions - positions[:, skeleton.root : skeleton.root + 1]
+    else:
+        motion = positions
+    inside = (motion_beats >= 0) & (motion_beats < duration)
+    meta: dict[str, Any] = {
+        "index": index,
+        "split": split_of(index, len(cfg.styles)),
+        "bpm": bpm,
+        "beats_per_bar": style.beats_per_bar,
+        "beat_times": [float(x) for x in grid["beats"]],
+        "downbeat_times": [float(x) for x in grid["downbeats"]],
+        "motion_beat_times": [float(x) for x in motion_beats[inside]],
+        "source": "synth_dance",
+    }
+    return Clip(
+        id=f"synth_{index:05d}",
+        motion=np.ascontiguousarray(motion, dtype=np.float32),
+        fps=fps,
+        audio=audio,
+        sample_rate=cfg.sample_rate,
+        skeleton=skeleton.name,
+        style=style.name,
+        trajectory=trajectory,
+        meta=meta,
+    )
+
+
+class SynthDance:
+    """In-memory ``synth_dance``: clips generated lazily, on each ``dataset[i]``.
+
+    Args:
+        cfg: the configuration (validated here; errors name the bad field).
+        split: ``"train"``, ``"val"``, ``"test"``, or ``"all"`` / ``None`` for every clip.
+    """
+
+    def __init__(self, cfg: SynthConfig | None = None, split: str | None = None) -> None:
+        self.cfg = cfg if cfg is not None else SynthConfig()
+        validate_config(self.cfg)
+        if split == "all":
+            split = None
+        if split is not None and split not in SPLITS:
+            raise ValueError(f"synth_dance: split must be one of {', '.join(SPLITS)}, all; got {split!r}")
+        self.split = split
+        n_styles = len(self.cfg.styles)
+        self.indices: tuple[int, ...] = tuple(
+            i for i in range(self.cfg.num_clips) if split is None or split_of(i, n_styles) == split
+        )
+
+    @property
+    def fps(self) -> float:
+        return resolved_fps(self.cfg)
+
+    @property
+    def skeleton(self) -> str:
+        return self.cfg.skeleton
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __getitem__(self, index: int) -> Clip:
+        if not -len(self) <= index < len(self):
+            raise IndexError(f"synth_dance index {index} out of range for {len(self)} clips")
+        return generate_clip(self.cfg, self.indices[index])
+
+    def __repr__(self) -> str:
+        return (
+            f"SynthDance(clips={len(self)}, split={self.split!r}, skeleton={self.cfg.skeleton!r}, "
+            f"fps={self.fps}, styles={list(self.cfg.styles)})"
+        )

@@ -1,0 +1,201 @@
+"""Writing ``synth_dance`` to disk and reading a written copy back.
+
+Layout of a written dataset (``write_dataset(out_dir, cfg)``)::
+
+    out_dir/manifest.json           format, version, config, skeleton, fps, sample_rate, clips[]
+    out_dir/audio/<id>.wav          mono, cfg.sample_rate, PCM_16 by default
+    out_dir/motion/<id>.npy         (T, J, D) float32 (metres for 3D, pixels for 2D)
+    out_dir/trajectory/<id>.npy     (T, 3) float32 root path, only when cfg.root_centred
+
+Each manifest clip entry holds ``id``, ``index``, ``style``, ``split``, the relative ``audio`` /
+``motion`` (/ ``trajectory``) paths, ``num_frames``, ``num_samples``, ``duration`` (s), ``bpm``,
+``beats_per_bar``, ``beat_times``, ``downbeat_times`` and ``motion_beat_times`` (s). Every file is
+written atomically and the manifest last, so an interrupted write never leaves a manifest that
+points at missing or partial files. The same configuration always gives byte-identical files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import logging
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import soundfile as sf
+
+from momu.data.synth.dataset import SPLITS, SynthConfig, SynthDance, generate_clip, resolved_fps
+from momu.data.types import Clip
+from momu.features.skeletons import get_skeleton
+from momu.io import atomic_path, atomic_write_bytes, read_json, write_json
+
+__all__ = ["write_dataset", "load_written", "WrittenSynthDance", "MANIFEST", "FORMAT"]
+
+log = logging.getLogger(__name__)
+
+MANIFEST = "manifest.json"
+FORMAT = "momu.synth_dance"
+VERSION = 1
+_META_KEYS = ("bpm", "beats_per_bar", "beat_times", "downbeat_times", "motion_beat_times")
+
+
+def _npy_bytes(array: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.save(buf, np.ascontiguousarray(array), allow_pickle=False)
+    return buf.getvalue()
+
+
+def write_dataset(
+    out_dir: str | Path,
+    cfg: SynthConfig | None = None,
+    *,
+    subtype: str = "PCM_16",
+    progress: Callable[[int], Any] | None = None,
+) -> Path:
+    """Generate every clip of ``cfg`` and write it under ``out_dir``; returns ``out_dir``.
+
+    Args:
+        out_dir: destination folder (created; existing files of the same names are replaced).
+        cfg: the configuration (default :class:`SynthConfig`).
+        subtype: libsndfile subtype of the wavs (``"PCM_16"`` or ``"FLOAT"``).
+        progress: called with 1 after each clip (e.g. a tqdm bar's ``update``).
+    """
+    cfg = cfg if cfg is not None else SynthConfig()
+    dataset = SynthDance(cfg)  # validates cfg
+    if subtype not in ("PCM_16", "PCM_24", "FLOAT"):
+        raise ValueError(f"subtype must be PCM_16, PCM_24 or FLOAT, got {subtype!r}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{out}: exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    entries: list[dict[str, Any]] = []
+    for index in dataset.indices:
+        clip = generate_clip(cfg, index)
+        assert clip.motion is not None and clip.audio is not None
+        entry: dict[str, Any] = {
+            "id": clip.id,
+            "index": index,
+            "style": clip.style,
+            "split": clip.meta["split"],
+            "audio": f"audio/{clip.id}.wav",
+            "motion": f"motion/{clip.id}.npy",
+            "num_frames": clip.num_frames,
+            "num_samples": int(clip.audio.shape[0]),
+            "duration": clip.duration,
+        }
+        with atomic_path(out / entry["audio"]) as tmp:
+            sf.write(tmp, clip.audio, cfg.sample_rate, subtype=subtype, format="WAV")
+        atomic_write_bytes(out / entry["motion"], _npy_bytes(clip.motion))
+        if clip.trajectory is not None:
+            entry["trajectory"] = f"trajectory/{clip.id}.npy"
+            atomic_write_bytes(out / entry["trajectory"], _npy_bytes(clip.trajectory))
+        entry.update({k: clip.meta[k] for k in _META_KEYS})
+        entries.append(entry)
+        if progress is not None:
+            progress(1)
+    skeleton = get_skeleton(cfg.skeleton)
+    manifest = {
+        "format": FORMAT,
+        "version": VERSION,
+        "config": dataclasses.asdict(cfg),
+        "skeleton": skeleton.name,
+        "dims": skeleton.dims,
+        "fps": resolved_fps(cfg),
+        "sample_rate": cfg.sample_rate,
+        "audio_subtype": subtype,
+        "splits": {s: sum(e["split"] == s for e in entries) for s in SPLITS},
+        "clips": entries,
+    }
+    write_json(out / MANIFEST, manifest)
+    log.info("wrote %d synth_dance clips to %s", len(entries), out)
+    return out
+
+
+class WrittenSynthDance:
+    """A ``synth_dance`` copy written by :func:`write_dataset`, loaded lazily clip by clip."""
+
+    def __init__(self, root: str | Path, split: str | None = None) -> None:
+        self.root = Path(root)
+        path = self.root / MANIFEST
+        if not path.is_file():
+            raise FileNotFoundError(
+                f"{path}: no synth_dance manifest (write one with `momu data synth --out DIR`)"
+            )
+        manifest = read_json(path)
+        if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+            raise ValueError(f"{path}: not a synth_dance manifest (format {manifest.get('format')!r})")
+        if manifest.get("version") != VERSION:
+            raise ValueError(f"{path}: unsupported manifest version {manifest.get('version')!r}")
+        if split == "all":
+            split = None
+        if split is not None and split not in SPLITS:
+            raise ValueError(f"synth_dance: split must be one of {', '.join(SPLITS)}, all; got {split!r}")
+        self.manifest = manifest
+        self.split = split
+        self.skeleton: str = manifest["skeleton"]
+        self.fps = float(manifest["fps"])
+        self.sample_rate = int(manifest["sample_rate"])
+        self.entries: list[dict[str, Any]] = [
+            e for e in manifest["clips"] if split is None or e["split"] == split
+        ]
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def _file(self, entry: dict[str, Any], key: str) -> Path:
+        path = self.root / entry[key]
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: listed in {self.root / MANIFEST} but missing")
+        return path
+
+    def __getitem__(self, index: int) -> Clip:
+        if not -len(self) <= index < len(self):
+            raise IndexError(f"synth_dance index {index} out of range for {len(self)} clips")
+        entry = self.entries[index]
+        motion_path = self._file(entry, "motion")
+        try:
+            motion = np.load(motion_path, allow_pickle=False)
+        except ValueError as exc:
+            raise ValueError(f"{motion_path}: unreadable motion array: {exc}") from None
+        sk = get_skeleton(self.skeleton)
+        if motion.shape != (entry["num_frames"], sk.num_joints, self.manifest["dims"]):
+            raise ValueError(
+                f"{motion_path}: motion shape {motion.shape}, manifest says "
+                f"({entry['num_frames']}, {sk.num_joints}, {self.manifest['dims']})"
+            )
+        audio_path = self._file(entry, "audio")
+        try:
+            audio, sr = sf.read(audio_path, dtype="float32", always_2d=False)
+        except (RuntimeError, sf.LibsndfileError) as exc:
+            raise ValueError(f"{audio_path}: unreadable audio: {exc}") from None
+        if sr != self.sample_rate or audio.ndim != 1 or audio.shape[0] != entry["num_samples"]:
+            raise ValueError(
+                f"{audio_path}: {audio.shape} samples at {sr} Hz, manifest says "
+                f"({entry['num_samples']},) at {self.sample_rate} Hz"
+            )
+        trajectory = None
+        if "trajectory" in entry:
+            trajectory = np.load(self._file(entry, "trajectory"), allow_pickle=False)
+        meta = {k: entry[k] for k in _META_KEYS}
+        meta.update(index=entry["index"], split=entry["split"], source="synth_dance", root=str(self.root))
+        return Clip(
+            id=entry["id"],
+            motion=motion.astype(np.float32, copy=False),
+            fps=self.fps,
+            audio=audio,
+            sample_rate=sr,
+            skeleton=self.skeleton,
+            style=entry["style"],
+            trajectory=trajectory,
+            meta=meta,
+        )
+
+    def __repr__(self) -> str:
+        return f"WrittenSynthDance(root={str(self.root)!r}, clips={len(self)}, split={self.split!r})"
+
+
+def load_written(out_dir: str | Path, split: str | None = None) -> WrittenSynthDance:
+    """Open a dataset written by :func:`write_dataset` (optionally one split) as a ClipDataset."""
+    return WrittenSynthDance(out_dir, split)
