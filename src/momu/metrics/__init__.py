@@ -24,6 +24,7 @@ from momu.metrics.geometric import geometric_features
 from momu.metrics.harmony import HarmonyResult, harmony_from_beats, harmony_score, hit_rate
 from momu.metrics.kinematic_beats import kinematic_beat_frames, kinematic_beat_scores
 from momu.metrics.kinetic import kinetic_features
+from momu.metrics.learned import inter_diversity, intra_diversity, mean_kl_divergence  # + fid_learned, fad
 from momu.metrics.loris_scores import beat_scores, onset_beat_bins, pair_beat_scores
 
 __all__ = [
@@ -58,4 +59,7 @@ __all__ = [
     "pfc",
     "pfc_sequence",
     "select_aligned",
+    "inter_diversity",
+    "intra_diversity",
+    "mean_kl_divergence",
 ]
