@@ -1,0 +1,112 @@
+"""The table runner: early validation, shared-stage caching, results and provenance."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import torch
+from omegaconf import DictConfig
+from torch import nn
+from torch.utils.data import TensorDataset
+
+from momu.engine import TrainConfig
+from momu.engine.context import RunContext
+from momu.engine.table import Column, PaperRow, Row, TableSpec, run_table
+from momu.registry import METHODS
+
+
+@dataclass
+class ToyMethodConfig:
+    width: int = 4
+    steps: int = 3
+
+
+@pytest.fixture(autouse=True)
+def toy_method():
+    METHODS.register("table_toy", config=ToyMethodConfig)(lambda cfg: cfg)
+    yield
+    METHODS.unregister("table_toy")
+
+
+def _evaluate(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, float]:
+    torch.manual_seed(seed)
+    x = torch.randn(16, 2)
+    data = TensorDataset(x, x.sum(1, keepdim=True))
+    model = nn.Sequential(nn.Linear(2, cfg.method.width), nn.Linear(cfg.method.width, 1))
+    trained = ctx.stage(
+        "toy",
+        {"width": cfg.method.width, "seed": seed},
+        model,
+        data,
+        lambda m, b: ((m(b[0]) - b[1]) ** 2).mean(),
+        TrainConfig(steps=cfg.method.steps, batch_size=4),
+    )
+    with torch.no_grad():
+        return {
+            "mse": float(((trained(x) - x.sum(1, keepdim=True)) ** 2).mean()),
+            "width": float(cfg.method.width),
+        }
+
+
+SPEC = TableSpec(
+    name="toy_table",
+    title="Toy table",
+    base_config={"method": {"name": "table_toy"}, "seed": 0},
+    presets={"smoke": ["method.steps=2"], "cpu": [], "paper": ["method.steps=50"]},
+    columns=[Column("mse", "MSE↓", False), Column("width", "W", True)],
+    rows=[Row("#1", "narrow", ("method.width=2",), {"mse": 0.5}), Row("#2", "wide", ("method.width=8",))],
+    evaluate=_evaluate,
+    calibrate=lambda ctx, cfg: {"ground truth": {"mse": 0.0}},
+    baselines=[PaperRow("Someone et al.", {"mse": 0.9})],
+)
+
+
+def test_full_run_writes_results_with_paper_numbers_and_provenance(tmp_path: Path) -> None:
+    assert (
+        run_table(SPEC, ["--preset", "smoke", "--out", str(tmp_path), "--tracker", "none", "--seeds", "0,1"])
+        == 0
+    )
+    result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
+    assert [r["id"] for r in result["rows"]] == ["#1", "#2"]
+    assert result["rows"][0]["paper"] == {"mse": 0.5}
+    assert result["rows"][1]["metrics"]["width"] == 8.0 and len(result["rows"][1]["per_seed"]) == 2
+    assert result["rows"][0]["config"]["method"] == {"name": "table_toy", "width": 2, "steps": 2}
+    assert result["calibration"] == [{"name": "ground truth", "metrics": {"mse": 0.0}}]
+    assert result["baselines"][0]["re_run"] is False
+    prov = result["provenance"]
+    assert prov["num_processes"] == 1 and prov["versions"]["torch"].startswith("2.")
+    assert len(prov["stages"]) == 4 and set(prov["stages"].values()) == {"trained"}
+    md = (tmp_path / "toy_table" / "results.md").read_text()
+    assert "| #1 | narrow |" in md and "not re-run" in md and "ground truth (calibration)" in md
+
+
+def test_rerunning_one_row_reuses_its_trained_stage(tmp_path: Path) -> None:
+    args = ["--preset", "smoke", "--out", str(tmp_path), "--tracker", "none"]
+    assert run_table(SPEC, args) == 0
+    assert run_table(SPEC, [*args, "--rows", "#2"]) == 0
+    result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
+    assert [r["id"] for r in result["rows"]] == ["#2"]
+    assert set(result["provenance"]["stages"].values()) == {"reused"}
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--rows", "#9"], "--rows: unknown row #9; valid rows: #1, #2"),
+        (
+            ["method.widht=3"],
+            "row #1 (narrow): method.widht: unknown key for method 'table_toy'; valid keys: width, steps",
+        ),
+        (["--data", "/no/such/dir"], "--data /no/such/dir: dataset folder not found"),
+    ],
+)
+def test_bad_arguments_fail_before_training(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], message: str
+) -> None:
+    assert run_table(SPEC, ["--out", str(tmp_path), "--tracker", "none", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"toy_table: error: {message}"
+    assert not (tmp_path / "toy_table").exists()
