@@ -2,20 +2,15 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from tests.helpers.motion_reference import reference_kinetic, reference_manual
 
 from momu.features.skeletons import get_skeleton
 from momu.metrics import fid, geometric_features, kinetic_features
 from momu.metrics.diversity import average_pairwise_distance
 from momu.metrics.frechet import frechet_distance
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "unit"))
-from _motion_reference import reference_kinetic, reference_manual  # noqa: E402
 
 SMPL = get_skeleton("smpl24")
 REST = SMPL.rest_pose()

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import logging
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.helpers.motion_reference import (
+    reference_avg_distance,
+    reference_calc_fid,
+    reference_kinetic,
+    reference_manual,
+    reference_normalize,
+)
 
 from momu.data.types import Clip
 from momu.features.skeletons import get_skeleton
@@ -23,15 +28,6 @@ from momu.metrics.frechet import (
 from momu.metrics.geometric import GEOMETRIC_FEATURE_TABLE, HIP_WIDTH, HUMERUS_LENGTH, SHOULDER_WIDTH
 from momu.metrics.motion_metrics import clip_features, prepare_motion
 from momu.registry import METRICS
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _motion_reference import (  # noqa: E402
-    reference_avg_distance,
-    reference_calc_fid,
-    reference_kinetic,
-    reference_manual,
-    reference_normalize,
-)
 
 REST = get_skeleton("smpl24").rest_pose()  # (24, 3) T-pose, y up, metres
 
