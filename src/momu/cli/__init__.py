@@ -23,6 +23,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "momu.cli.config_cmd",
     "momu.cli.data_cmd",
     "momu.cli.eval_cmd",
+    "momu.cli.extractor_cmd",
 )
 
 USAGE_ERRORS = (ConfigError, RegistryError, PluginError)
