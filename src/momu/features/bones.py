@@ -245,12 +245,14 @@ def correct_bone_lengths(
     fixed: Any
     if isinstance(x, torch.Tensor):
         mean = torch.as_tensor(mean_lengths, dtype=x.dtype, device=x.device)
-        fixed = torch.where(lengths > ratio * mean, mean.expand_as(lengths), lengths)
     else:
         mean = np.asarray(mean_lengths, dtype=np.float64)
-        fixed = np.where(lengths > ratio * mean, mean, lengths)
-    if mean.shape != (len(arr),):
+    if tuple(mean.shape) != (len(arr),):
         raise ValueError(f"mean_lengths: expected ({len(arr)},), got shape {tuple(mean.shape)}")
+    if isinstance(x, torch.Tensor):
+        fixed = torch.where(lengths > ratio * mean, mean.expand_as(lengths), lengths)
+    else:
+        fixed = np.where(lengths > ratio * mean, mean, lengths)
     out = positions_from_directions(
         bone_directions(x, arr), fixed, arr, x[:, ridx], root_index=ridx, num_joints=x.shape[1]
     )
