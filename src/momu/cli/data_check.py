@@ -1,4 +1,4 @@
-"""``momu data check DATASET --root DIR [key=value ...]``: load every item, summarise, list bad files.
+"""``momu data check DATASET --root DIR [--set key=value ...]``: load every item, summarise, list bad files.
 
 Every item of the dataset is read (and validated by its loader); the command prints a summary —
 items, durations, frame rates, skeletons / joints, audio sample rates, splits, styles — and one
@@ -170,14 +170,28 @@ def add_action(actions: Any) -> None:
     )
     p.add_argument("dataset", help="registered dataset name (momu list datasets)")
     p.add_argument("--root", required=True, help="the dataset folder in its published layout")
-    p.add_argument("overrides", nargs="*", metavar="key=value", help="dataset options, e.g. load_audio=false")
+    p.add_argument(
+        "overrides",
+        nargs="*",
+        metavar="key=value",
+        help="dataset options before --root, e.g. load_audio=false",
+    )
+    p.add_argument(
+        "--set",
+        dest="options",
+        nargs="+",
+        action="extend",
+        default=[],
+        metavar="key=value",
+        help="dataset options anywhere on the line, e.g. --set split=val load_audio=false",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     title = f"dataset: {args.dataset}  root: {args.root}"
     try:
-        dataset = open_dataset(args.dataset, args.root, args.overrides)
+        dataset = open_dataset(args.dataset, args.root, [*args.overrides, *args.options])
     except (DataFileError, FileNotFoundError, ValueError) as exc:
         if isinstance(exc, ConfigError):
             raise

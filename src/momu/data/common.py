@@ -161,6 +161,10 @@ def load_npy(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise MissingDataFileError(path, "file not found")
+    with open(path, "rb") as f:
+        magic = f.read(6)
+    if magic != b"\x93NUMPY":
+        raise DataFileError(path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)")
     try:
         array = np.load(path, allow_pickle=False)
     except ValueError as exc:

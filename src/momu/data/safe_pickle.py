@@ -9,7 +9,7 @@ resolves only a fixed allow-list of globals:
   ``numpy._core.multiarray._reconstruct``, ``numpy.ndarray``, ``numpy.dtype``,
   ``numpy.core.multiarray.scalar``, ``numpy.core.numeric._frombuffer`` and their
   ``numpy._core`` spellings for pickles written by numpy >= 2);
-* plain containers that need a global in the pickle stream (``set``, ``frozenset``,
+* plain containers that need a global in the pickle stream (``set``, ``frozenset``, ``bytes``,
   ``bytearray``, ``complex``, ``collections.OrderedDict``);
 * ``_codecs.encode``, which Python 3 emits for ``bytes`` in protocol-2 pickles, narrowed to
   encoding a ``str`` as latin-1.
@@ -65,6 +65,8 @@ def _build_allowed() -> dict[tuple[str, str], Callable[..., Any] | type]:
         ("builtins", "frozenset"): frozenset,
         ("builtins", "bytearray"): bytearray,
         ("builtins", "complex"): complex,
+        ("builtins", "bytes"): bytes,
+        ("__builtin__", "bytes"): bytes,
         ("__builtin__", "set"): set,  # Python 2 pickles
         ("__builtin__", "frozenset"): frozenset,
         ("__builtin__", "bytearray"): bytearray,

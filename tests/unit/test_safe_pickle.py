@@ -1,0 +1,149 @@
+"""The restricted unpickler: containers and numpy arrays load; anything that could run code is refused."""
+
+from __future__ import annotations
+
+import collections
+import copyreg
+import os
+import pickle
+import pickletools
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tests.fixtures.layouts import evil_pickle_bytes
+
+from momu.data.safe_pickle import ALLOWED_GLOBALS, UnsafePickleError, safe_load, safe_loads
+
+
+def _aist_like() -> dict:
+    rng = np.random.default_rng(0)
+    return {
+        "smpl_poses": rng.normal(size=(5, 72)).astype(np.float32),
+        "smpl_trans": np.asfortranarray(rng.normal(size=(5, 3))),
+        "smpl_scaling": np.array([93.5]),
+        "smpl_loss": np.float64(0.25),
+        "frames": np.int64(5),
+        "mask": np.array([True, False, True]),
+        "empty": np.zeros((0, 17, 3), np.float32),
+        "scalar_array": np.array(3.5),
+        "nested": [(1, 2.5, "a", None, True), {"k": b"bytes"}],
+        "sets": ({1, 2}, frozenset({"x"})),
+        "ordered": collections.OrderedDict(b=1, a=2),
+        "complex": 1 + 2j,
+    }
+
+
+@pytest.mark.parametrize("protocol", range(pickle.HIGHEST_PROTOCOL + 1))
+def test_plain_containers_and_numpy_round_trip_at_every_protocol(protocol: int) -> None:
+    data = _aist_like()
+    out = safe_loads(pickle.dumps(data, protocol=protocol))
+    assert out.keys() == data.keys()
+    for key in ("smpl_poses", "smpl_trans", "smpl_scaling", "mask", "empty", "scalar_array"):
+        np.testing.assert_array_equal(out[key], data[key])
+        assert out[key].dtype == data[key].dtype and out[key].shape == data[key].shape
+    assert out["smpl_trans"].flags.f_contiguous
+    assert out["smpl_loss"] == 0.25 and isinstance(out["smpl_loss"], np.float64)
+    assert out["frames"] == 5 and isinstance(out["frames"], np.int64)
+    assert out["nested"] == data["nested"] and out["sets"] == data["sets"]
+    assert list(out["ordered"]) == ["b", "a"] and out["complex"] == 1 + 2j
+
+
+def test_crafted_pickle_cannot_run_code(tmp_path: Path) -> None:
+    marker = tmp_path / "PWNED"
+    payload = evil_pickle_bytes(marker)
+    with pytest.raises(UnsafePickleError, match=r"refusing to load global '(posix|nt|os)\.system'"):
+        safe_loads(payload)
+    assert not marker.exists()
+    # The same bytes do run code through plain pickle — the test's payload is real.
+    pickle.loads(payload)
+    assert marker.exists()
+
+
+class _Reduce:
+    def __init__(self, func: object, args: tuple) -> None:
+        self.func, self.args = func, args
+
+    def __reduce__(self) -> tuple:
+        return (self.func, self.args)
+
+
+@pytest.mark.parametrize(
+    "func, args",
+    [
+        (eval, ("1 + 1",)),
+        (exec, ("x = 1",)),
+        (getattr, ("abc", "upper")),
+        (subprocess.Popen, (["true"],)),
+        (os.remove, ("/nonexistent",)),
+        (np.load, ("/nonexistent.npy",)),
+        (__import__, ("os",)),
+    ],
+)
+def test_every_callable_outside_the_allow_list_is_refused(func: object, args: tuple) -> None:
+    with pytest.raises(UnsafePickleError, match="refusing to load global"):
+        safe_loads(pickle.dumps(_Reduce(func, args), protocol=2))
+
+
+def test_class_instances_are_refused_even_harmless_ones() -> None:
+    with pytest.raises(UnsafePickleError, match="refusing to load global"):
+        safe_loads(pickle.dumps(_Reduce(dict, ()), protocol=4))
+    with pytest.raises(UnsafePickleError, match=r"copy_?reg\._reconstructor"):
+        safe_loads(pickle.dumps(_Reduce(copyreg._reconstructor, (object, object, None)), protocol=2))
+
+
+def test_codecs_encode_is_narrowed_to_latin1_strings() -> None:
+    # Python 3 writes bytes as _codecs.encode(str, 'latin1') at protocol 2: that must load ...
+    assert b"_codecs" in pickle.dumps(b"\x00\xff", protocol=2)
+    assert safe_loads(pickle.dumps(b"\x00\xff", protocol=2)) == b"\x00\xff"
+    # ... but _codecs.encode with another codec is refused.
+    crafted = pickle.dumps(_Reduce(__import__("_codecs").encode, ("abc", "rot13")), protocol=2)
+    with pytest.raises(UnsafePickleError, match="latin-1"):
+        safe_loads(crafted)
+
+
+def test_allow_list_is_only_containers_and_numpy() -> None:
+    modules = {module for module, _ in ALLOWED_GLOBALS}
+    assert modules <= {
+        "collections",
+        "builtins",
+        "__builtin__",
+        "_codecs",
+        "numpy",
+        "numpy.core.multiarray",
+        "numpy._core.multiarray",
+        "numpy.core.numeric",
+        "numpy._core.numeric",
+    }
+    assert ("builtins", "eval") not in ALLOWED_GLOBALS and ("builtins", "getattr") not in ALLOWED_GLOBALS
+
+
+def test_persistent_ids_are_refused() -> None:
+    # PERSID opcode: b"P" + id + newline, then STOP.
+    with pytest.raises(UnsafePickleError, match="persistent"):
+        safe_loads(b"Pabc\n.")
+
+
+def test_truncated_and_garbage_input_name_the_source(tmp_path: Path) -> None:
+    data = pickle.dumps(_aist_like(), protocol=2)
+    path = tmp_path / "seq.pkl"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(UnsafePickleError, match=rf"{path}: not a readable pickle"):
+        safe_load(path)
+    path.write_bytes(b"")
+    with pytest.raises(UnsafePickleError, match="not a readable pickle"):
+        safe_load(path)
+    with pytest.raises(FileNotFoundError, match="missing.pkl"):
+        safe_load(tmp_path / "missing.pkl")
+
+
+def test_numpy_1_pickles_referencing_numpy_core_load_without_warnings(
+    recwarn: pytest.WarningsRecorder,
+) -> None:
+    data = pickle.dumps(np.arange(4, dtype=np.int16), protocol=2)
+    old = data.replace(b"numpy._core.multiarray", b"numpy.core.multiarray")
+    assert b"numpy.core.multiarray" in old
+    pickletools.dis(old, out=open(os.devnull, "w"))  # still a valid pickle stream
+    np.testing.assert_array_equal(safe_loads(old), np.arange(4, dtype=np.int16))
+    assert not [w for w in recwarn if "numpy.core" in str(w.message)]
