@@ -64,10 +64,12 @@ def _window_sum(terms: np.ndarray, window: int, out_len: int) -> tuple[np.ndarra
     pad[-3] = (window, pad_right)
     padded = np.pad(terms.astype(np.float64, copy=False), pad)
     valid = np.pad(np.ones(length, dtype=np.int64), (window, pad_right))
-    acc = np.zeros(terms.shape[:-3] + (out_len,) + terms.shape[-2:], dtype=np.float64)
-    counts = np.zeros(out_len, dtype=np.int64)
-    for offset in range(2 * window + 1):  # k = -w..w, the reference's order
-        acc = acc + padded[..., offset : offset + out_len, :, :]
+    # The reference starts from 0.0 and adds the valid terms in k order; adding the zero padding instead of
+    # skipping invalid terms leaves every partial sum bit-identical.
+    acc = padded[..., 0:out_len, :, :].copy()
+    counts = valid[0:out_len].copy()
+    for offset in range(1, 2 * window + 1):  # k = -w+1..w
+        np.add(acc, padded[..., offset : offset + out_len, :, :], out=acc)
         counts += valid[offset : offset + out_len]
     return acc, counts
 

@@ -213,7 +213,7 @@ def clip_features(
     buckets: dict[tuple[int, float, str], list[int]] = {}
     for i, (clip, x) in enumerate(zip(clips, prepared)):
         buckets.setdefault((x.shape[0], float(clip.fps), str(x.dtype)), []).append(i)
-    batch = 64
+    batch = 8  # clips per vectorised call: larger batches leave the cache and run slower
     for (_, fps, _), indices in buckets.items():
         for start in range(0, len(indices), batch):
             idx = indices[start : start + batch]
