@@ -8,6 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import soundfile as sf
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 from momu.data.common import (
     DataFileError,
@@ -218,3 +221,51 @@ def test_require_root_messages(tmp_path: Path) -> None:
 def test_data_file_error_carries_path_and_reason_through_pickling() -> None:
     err = pickle.loads(pickle.dumps(DataFileError("/x/y.npy", "bad shape")))
     assert err.path == Path("/x/y.npy") and err.reason == "bad shape" and str(err) == "/x/y.npy: bad shape"
+
+
+# ------------------------------------------------------------------------------------ properties
+@settings(deadline=None)
+@given(
+    fps=st.sampled_from([15.0, 20.0, 25.0, 60.0]),
+    frames=st.integers(10, 300),
+    start_frac=st.floats(0.0, 0.9),
+    len_frac=st.floats(0.05, 1.0),
+    beats=st.lists(st.floats(0.0, 20.0), max_size=20),
+)
+def test_crop_clip_keeps_modalities_aligned(
+    fps: float, frames: int, start_frac: float, len_frac: float, beats: list[float]
+) -> None:
+    sr = 100
+    duration = frames / fps
+    start = start_frac * duration
+    seconds = max(len_frac * (duration - start), 1.0 / fps)
+    if start + seconds > duration:
+        return
+    clip = Clip(
+        id="p",
+        motion=np.zeros((frames, 1, 2), np.float32),
+        fps=fps,
+        audio=np.zeros(int(round(duration * sr)), np.float32),
+        sample_rate=sr,
+        meta={"beat_times": np.sort(np.asarray(beats))},
+    )
+    out = crop_clip(clip, start, seconds)
+    assert abs(out.num_frames - seconds * fps) <= 1
+    assert abs(len(out.audio) / sr - out.num_frames / fps) <= 1.0 / fps + 1.0 / sr
+    kept = out.meta["beat_times"]
+    assert np.all((kept >= 0) & (kept < seconds))
+    assert len(kept) == int(np.sum((np.asarray(beats) >= start) & (np.asarray(beats) < start + seconds)))
+
+
+@settings(deadline=None)
+@given(
+    data=hnp.arrays(np.float32, (12, 3, 2), elements=st.floats(-100, 100, width=32)),
+    holes=hnp.arrays(np.bool_, (12, 3)),
+)
+def test_clean_keypoints_fills_every_hole_keeps_observed(data: np.ndarray, holes: np.ndarray) -> None:
+    holes[0] = False  # every joint observed at least once
+    x = data.copy()
+    x[holes] = np.nan
+    out, filled = clean_keypoints(x, "p.npy", joints=3, dims=2, max_gap=None)
+    assert filled == int(holes.sum()) and np.isfinite(out).all()
+    np.testing.assert_array_equal(out[~holes], data[~holes])

@@ -12,6 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 from tests.fixtures.layouts import evil_pickle_bytes
 
 from momu.data.safe_pickle import ALLOWED_GLOBALS, UnsafePickleError, safe_load, safe_loads
@@ -147,3 +150,43 @@ def test_numpy_1_pickles_referencing_numpy_core_load_without_warnings(
     pickletools.dis(old, out=open(os.devnull, "w"))  # still a valid pickle stream
     np.testing.assert_array_equal(safe_loads(old), np.arange(4, dtype=np.int16))
     assert not [w for w in recwarn if "numpy.core" in str(w.message)]
+
+
+# ------------------------------------------------------------------------------------ properties
+_scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=False),
+    st.text(max_size=8),
+    st.binary(max_size=8),
+)
+_arrays = hnp.arrays(
+    dtype=st.sampled_from([np.float32, np.float64, np.int16, np.int64, np.bool_, np.complex64]),
+    shape=hnp.array_shapes(min_dims=0, max_dims=3, max_side=4),
+)
+_trees = st.recursive(
+    st.one_of(_scalars, _arrays),
+    lambda kids: st.one_of(
+        st.lists(kids, max_size=3),
+        st.tuples(kids, kids),
+        st.dictionaries(st.text(max_size=4), kids, max_size=3),
+    ),
+    max_leaves=8,
+)
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return a == b and type(a) is type(b)
+
+
+@settings(deadline=None)
+@given(tree=_trees, protocol=st.integers(0, pickle.HIGHEST_PROTOCOL))
+def test_any_tree_of_containers_and_arrays_round_trips(tree: object, protocol: int) -> None:
+    assert _same(tree, safe_loads(pickle.dumps(tree, protocol=protocol)))
