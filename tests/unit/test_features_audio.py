@@ -101,7 +101,16 @@ def test_mel_to_power_inverts_the_log() -> None:
     np.testing.assert_allclose(raw, np.maximum(ref, 1e-5), rtol=1e-4)
 
 
-@pytest.mark.parametrize("cfg", [MoMuMelConfig(), MoFusionMelConfig(), MelConfig(log="none", power=2.0)])
+@pytest.mark.parametrize(
+    "cfg",
+    [
+        MoMuMelConfig(),
+        MoFusionMelConfig(),
+        MelConfig(log="none", power=2.0),
+        MelConfig(pad_mode="reflect", win_length=800, window="hamming"),
+        MelConfig(center=False, htk=True, mel_norm="none", fmin=50.0, fmax=7000.0),
+    ],
+)
 def test_torch_mel_matches_librosa_batched(cfg: MelConfig) -> None:
     batch = np.stack([tone(1.0, seed=0), tone(1.0, freq=880.0, seed=1)])
     module = MelSpectrogram(cfg)
