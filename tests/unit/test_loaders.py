@@ -98,6 +98,17 @@ def test_aistpp_bad_options_and_layout(aist_root: Path, tmp_path: Path) -> None:
         build("aistpp", tmp_path, split="test")
     with pytest.raises(IndexError, match="out of range"):
         build("aistpp", aist_root, split="val")[5]
+    with pytest.raises(ValueError, match="sample_rate must be positive"):
+        build("aistpp", aist_root, sample_rate=0)
+    with pytest.raises(ValueError, match="window_seconds must be positive"):
+        build("aistpp", aist_root, window_seconds=-1.0)
+
+
+def test_datasets_pickle_for_dataloader_workers(aist_root: Path) -> None:
+    ds = build("aistpp", aist_root, split="train", load_audio=False)
+    copy = pickle.loads(pickle.dumps(ds))
+    assert copy.ids == ds.ids
+    np.testing.assert_array_equal(copy[1].motion, ds[1].motion)
 
 
 # ------------------------------------------------------------------------------ Dance with Melody

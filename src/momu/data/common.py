@@ -428,6 +428,16 @@ class LazyClipDataset:
     name = "dataset"
 
     def __init__(self, cfg: LoaderConfig, root: Path, items: Iterable[ItemRef]) -> None:
+        if cfg.sample_rate is not None and cfg.sample_rate <= 0:
+            raise ValueError(f"{self.name}: sample_rate must be positive or null, got {cfg.sample_rate}")
+        if cfg.window_seconds is not None and cfg.window_seconds <= 0:
+            raise ValueError(
+                f"{self.name}: window_seconds must be positive or null, got {cfg.window_seconds}"
+            )
+        if cfg.window_offset_seconds < 0:
+            raise ValueError(
+                f"{self.name}: window_offset_seconds must be >= 0, got {cfg.window_offset_seconds}"
+            )
         self.cfg = cfg
         self.root = root
         self.items: list[ItemRef] = list(items)
