@@ -59,11 +59,11 @@ def _window_sum(terms: np.ndarray, window: int, out_len: int) -> tuple[np.ndarra
         ``(sums (..., out_len, J, 3) float64, counts (out_len,) int)`` — counts of valid terms per frame.
     """
     length = terms.shape[-3]
-    pad_right = out_len + window - length  # ≥ window
-    pad = [(0, 0)] * terms.ndim
-    pad[-3] = (window, pad_right)
-    padded = np.pad(terms.astype(np.float64, copy=False), pad)
-    valid = np.pad(np.ones(length, dtype=np.int64), (window, pad_right))
+    total = out_len + 2 * window  # padded length: window zeros before, ≥ window zeros after
+    padded = np.zeros(terms.shape[:-3] + (total,) + terms.shape[-2:], dtype=np.float64)
+    padded[..., window : window + length, :, :] = terms  # exact float32 → float64 conversion
+    valid = np.zeros(total, dtype=np.int64)
+    valid[window : window + length] = 1
     # The reference starts from 0.0 and adds the valid terms in k order; adding the zero padding instead of
     # skipping invalid terms leaves every partial sum bit-identical.
     acc = padded[..., 0:out_len, :, :].copy()
@@ -102,7 +102,8 @@ def _kinetic_single(x: np.ndarray, frame_time: float, up_axis: str, window: int,
     accel = (v2 - v1) / ft  # input dtype, accel[c-1] = a_c
     asum, acount = _window_sum(accel, window, num_frames - 1)
     mean_acc = asum / acount.astype(np.float64)[:, None, None]
-    ee_terms = np.sqrt(np.sum(mean_acc * mean_acc, axis=-1))
+    ax, ay, az = mean_acc[..., 0], mean_acc[..., 1], mean_acc[..., 2]
+    ee_terms = np.sqrt(ax * ax + ay * ay + az * az)  # ‖·‖ summed left to right, as a 3-element dot
     ee = np.cumsum(ee_terms, axis=-2)[..., -1, :] / (num_frames - 1.0)
 
     feats = np.stack([ke_h, ke_v, ee], axis=-1)  # (..., J, 3)
