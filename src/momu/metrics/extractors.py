@@ -304,10 +304,12 @@ def audio_segments(
     if sample_rate is None:
         raise ValueError(f"{name}: has audio but no sample rate")
     wave = check_waveform(audio, sample_rate, name=name)
+    seconds = cfg.segment_frames / cfg.mel.frame_rate
+    if len(wave) / float(sample_rate) < seconds - 1.0 / cfg.mel.frame_rate:
+        raise ValueError(f"{name}: audio is shorter than one {seconds:.2f} s segment ({len(wave)} samples)")
     mel = momu_mel(wave, sample_rate, cfg.mel)  # (n_mels, frames)
     n = mel.shape[1] // cfg.segment_frames
     if n == 0:
-        seconds = cfg.segment_frames / cfg.mel.frame_rate
         raise ValueError(
             f"{name}: audio is shorter than one {seconds:.2f} s segment ({mel.shape[1]} mel frames)"
         )
