@@ -336,6 +336,20 @@ def test_prepare_motion_root_shift_and_truncation() -> None:
     )
 
 
+def test_root_centred_clips_use_their_trajectory() -> None:
+    motion = dance(6, 30)
+    root = motion[:, :1, :].copy()
+    centred = Clip(id="c", motion=motion - root, fps=60.0, skeleton="smpl24", trajectory=root[:, 0, :])
+    glob = Clip(id="g", motion=motion, fps=60.0, skeleton="smpl24")
+    for kind in ("kinetic", "geometric"):
+        np.testing.assert_allclose(
+            clip_features([centred], kind), clip_features([glob], kind), rtol=1e-5, atol=1e-5
+        )
+    bad = Clip(id="b", motion=motion, fps=60.0, skeleton="smpl24", trajectory=np.zeros((29, 3)))
+    with pytest.raises(ValueError, match="'b' trajectory"):
+        clip_features([bad], "kinetic")
+
+
 def test_registered_fid_and_div_metrics() -> None:
     gen, ref = clips([1, 2, 3, 4, 5]), clips([6, 7, 8, 9, 10, 11])
     fid_k = METRICS.build("fid_k")

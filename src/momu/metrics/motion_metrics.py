@@ -151,7 +151,8 @@ def _check_config(cfg: MotionFeatureConfig) -> None:
 
 
 def _clip_positions(clip: Clip, metric: str) -> np.ndarray:
-    """The clip's SMPL-24 motion ``(T, 24, 3)``, with clear errors for anything else."""
+    """The clip's global SMPL-24 positions ``(T, 24, 3)`` (root-centred motion + ``trajectory`` when given),
+    with clear errors for anything else."""
     if clip.motion is None:
         raise ValueError(f"{metric}: clip {clip.id!r} has no motion")
     if clip.skeleton and clip.skeleton != "smpl24":
@@ -167,6 +168,16 @@ def _clip_positions(clip: Clip, metric: str) -> np.ndarray:
         )
     if not clip.fps or clip.fps <= 0:
         raise ValueError(f"{metric}: clip {clip.id!r} has an invalid frame rate {clip.fps!r}")
+    if clip.trajectory is not None:
+        # Root-centred motion (Clip.trajectory holds the root's global path): restore global positions,
+        # which the reference features are computed on.
+        trajectory = np.asarray(clip.trajectory)
+        if trajectory.shape != (motion.shape[0], 3):
+            raise ValueError(
+                f"{metric}: clip {clip.id!r} trajectory must be ({motion.shape[0]}, 3) to match its motion, "
+                f"got {trajectory.shape}"
+            )
+        motion = motion + trajectory[:, None, :].astype(motion.dtype, copy=False)
     return motion
 
 
