@@ -32,7 +32,7 @@ Layouts (see ``docs/synth_dance.md`` for the paper mapping):
   the root of the head, both shoulders and both hips; each ankle carries heel and toe. Side names
   are inferred from the data (knees and toes point forward; right-handed, Y up): joints 3-11 are
   the right side, 12-20 the left. Points 21-22 (``dwm23`` only) mark hand direction. The real data
-  is in centimetres and not rigid (mocap noise, std of bone length 1-5 cm); the rest offsets here
+  is in centimetres and not rigid (mocap noise: bone-length std 0.7-5.4 cm); the rest offsets here
   are its mean bone lengths in metres.
 """
 
