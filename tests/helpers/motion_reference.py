@@ -201,3 +201,29 @@ def reference_normalize(feat, feat2):
     mean = feat.mean(axis=0)
     std = feat.std(axis=0)
     return (feat - mean) / (std + 1e-10), (feat2 - mean) / (std + 1e-10)
+
+
+def reference_mint_fid(real, gen):
+    """mint ``calculate_frechet_feature_distance(real, gen)`` (PR #41), with ``sqrtm(disp=False)``."""
+    import warnings
+
+    from scipy import linalg
+
+    real, gen = np.stack(real), np.stack(gen)
+    mean = np.mean(real, axis=0)
+    std = np.std(real, axis=0) + 1e-10
+    real, gen = (real - mean) / std, (gen - mean) / std
+    mu1, sigma1 = np.mean(real, axis=0), np.cov(real, rowvar=False)
+    mu2, sigma2 = np.mean(gen, axis=0), np.cov(gen, rowvar=False)
+    diff = mu1 - mu2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        covmean, _ = linalg.sqrtm(sigma1.dot(sigma2), disp=False)
+        if not np.isfinite(covmean).all():
+            offset = np.eye(sigma1.shape[0]) * 1e-6
+            covmean = linalg.sqrtm((sigma1 + offset).dot(sigma2 + offset))
+    if np.iscomplexobj(covmean):
+        if not np.allclose(np.diagonal(covmean).imag, 0, atol=1e-3):
+            raise ValueError("Imaginary component")
+        covmean = covmean.real
+    return diff.dot(diff) + np.trace(sigma1) + np.trace(sigma2) - 2 * np.trace(covmean)

@@ -12,6 +12,7 @@ from tests.helpers.motion_reference import (
     reference_calc_fid,
     reference_kinetic,
     reference_manual,
+    reference_mint_fid,
     reference_normalize,
 )
 
@@ -222,6 +223,7 @@ def test_fid_identical_sets_zero_and_matches_bailando() -> None:
     assert fid(pred, gt) == pytest.approx(
         float(np.real(reference_calc_fid(pred_n, gt_n))), rel=1e-12, abs=1e-12
     )
+    assert fid(pred, gt, variant="mint") == pytest.approx(float(reference_mint_fid(gt, pred)), rel=1e-12)
     assert fid(pred, gt, variant="mint") == pytest.approx(fid(pred, gt), rel=1e-8)
 
 
@@ -370,6 +372,23 @@ def test_registered_fid_and_div_metrics() -> None:
     assert not raw.needs_reference
     assert raw(gen)["div_g"] == pytest.approx(average_pairwise_distance(gen_g))
     assert fid_k.provenance()["config"]["variant"] == "bailando"
+
+
+def test_fid_k_and_fid_g_match_the_bailando_pipeline_end_to_end() -> None:
+    gen, ref = clips([21, 22, 23, 24, 25], frames=30), clips([31, 32, 33, 34, 35, 36, 37], frames=30)
+
+    def bailando_features(cs: list[Clip], extract: object) -> np.ndarray:
+        out = []
+        for c in cs:
+            joint3d = c.motion.reshape(-1, 72)[:1200, :]
+            joint3d = joint3d - np.tile(joint3d[:1, :3], (1, 24))
+            out.append(extract(joint3d.reshape(-1, 24, 3)))  # type: ignore[operator]
+        return np.stack(out)
+
+    for name, extract in (("fid_k", reference_kinetic), ("fid_g", reference_manual)):
+        gt_n, pred_n = reference_normalize(bailando_features(ref, extract), bailando_features(gen, extract))
+        expected = float(np.real(reference_calc_fid(pred_n, gt_n)))
+        assert METRICS.build(name)(gen, ref)[name] == pytest.approx(expected, rel=1e-9, abs=1e-9)
 
 
 def test_registered_multimodality() -> None:
