@@ -79,6 +79,11 @@ def test_aistpp_keypoints2d_view_and_window(aist_root: Path) -> None:
     windowed = build("aistpp", aist_root, split="val", window_seconds=1.0, window_offset_seconds=0.5)[0]
     assert windowed.motion.shape[0] == 60 and windowed.meta["smpl_poses"].shape == (60, 72)
     assert len(windowed.audio) == windowed.sample_rate  # 1 s at the loader's 16 kHz default
+    half = build(
+        "aistpp", aist_root, split="val", target_fps=30.0, window_seconds=1.0, window_offset_seconds=0.5
+    )[0]
+    assert half.fps == 30.0 and half.motion.shape == (30, 17, 3) and half.meta["smpl_poses"].shape == (30, 72)
+    np.testing.assert_array_equal(half.motion, windowed.motion[::2])  # every other frame of the 60 fps window
     too_long = build("aistpp", aist_root, split="val", window_seconds=5.0, load_audio=False)
     with pytest.raises(DataFileError, match=r"keypoints3d/gJB_.*\.pkl: .*shorter than the requested window"):
         too_long[0]

@@ -24,6 +24,7 @@ from momu.data.common import (
     read_json_file,
     read_lines,
     require_root,
+    resample_motion,
 )
 from momu.data.types import Clip
 
@@ -193,6 +194,35 @@ def test_crop_clip_cuts_motion_audio_confidence_and_beats_consistently() -> None
         ValueError, match=r"clip 'c' is 5.00 s long, shorter than the requested window \[4.00, 6.00\)"
     ):
         crop_clip(clip, 4.0, 2.0)
+
+
+def test_resample_motion_subsamples_integer_ratios_exactly() -> None:
+    motion = np.arange(11, dtype=np.float32)[:, None, None] * np.ones((1, 2, 3), np.float32)
+    meta = {"confidence": np.arange(11.0)[:, None], "smpl_poses": np.arange(11.0)[:, None] * np.ones((1, 72))}
+    clip = Clip(id="r", motion=motion, fps=60.0, meta=meta)
+    out = resample_motion(clip, 30.0)
+    assert out.fps == 30.0 and out.num_frames == 5 and out.meta["source_fps"] == 60.0
+    np.testing.assert_array_equal(out.motion[:, 0, 0], [0, 2, 4, 6, 8])
+    np.testing.assert_array_equal(out.meta["confidence"][:, 0], [0, 2, 4, 6, 8])
+    np.testing.assert_array_equal(out.meta["smpl_poses"][:, 0], [0, 2, 4, 6, 8])
+    assert resample_motion(clip, 60.0) is clip
+
+
+def test_resample_motion_interpolates_positions_and_takes_nearest_smpl() -> None:
+    frames = 26  # 25 fps, 1.04 s
+    motion = np.arange(frames, dtype=np.float32)[:, None, None] * np.ones((1, 1, 3), np.float32)
+    clip = Clip(
+        id="r",
+        motion=motion,
+        fps=25.0,
+        trajectory=np.arange(frames, dtype=np.float32)[:, None] * np.ones((1, 3), np.float32),
+        meta={"smpl_trans": np.arange(frames, dtype=np.float32)[:, None] * np.ones((1, 3), np.float32)},
+    )
+    out = resample_motion(clip, 20.0)  # frame k sits at original frame 1.25 k
+    assert out.num_frames == 20 and out.duration <= clip.duration
+    np.testing.assert_allclose(out.motion[:, 0, 0], 1.25 * np.arange(20), atol=1e-5)
+    np.testing.assert_allclose(out.trajectory[:, 0], 1.25 * np.arange(20), atol=1e-5)
+    np.testing.assert_array_equal(out.meta["smpl_trans"][:, 0], np.round(1.25 * np.arange(20)))
 
 
 # ------------------------------------------------------------------------------------ splits, misc

@@ -39,6 +39,7 @@ __all__ = [
     "clean_keypoints",
     "check_length_match",
     "crop_clip",
+    "resample_motion",
     "hash_split",
     "skeleton_shape",
     "SPLITS",
@@ -88,6 +89,8 @@ class LoaderConfig:
         window_seconds: crop every clip to this many seconds (``None``: whole clips). A clip
             shorter than ``window_offset_seconds + window_seconds`` is an error naming its file.
         window_offset_seconds: where the window starts, in seconds from the clip's start.
+        target_fps: resample the motion to this frame rate (``None``: keep the dataset's);
+            see :func:`resample_motion`. Applied before the window.
     """
 
     root: str = ""
@@ -96,6 +99,7 @@ class LoaderConfig:
     sample_rate: int | None = 16000
     window_seconds: float | None = None
     window_offset_seconds: float = 0.0
+    target_fps: float | None = None
 
 
 @dataclass(frozen=True)
@@ -395,6 +399,49 @@ def crop_clip(clip: Clip, start: float, seconds: float) -> Clip:
     return dataclasses.replace(clip, motion=motion, trajectory=trajectory, audio=audio, meta=meta)
 
 
+def resample_motion(clip: Clip, target_fps: float) -> Clip:
+    """``clip`` with its motion (and trajectory, per-frame ``meta``) at ``target_fps``.
+
+    Frame ``k`` of the result is the pose at ``k / target_fps`` seconds; the result covers no more
+    than the original duration (``floor(T * target_fps / fps)`` frames, at least 1). When ``fps`` is an
+    integer multiple of ``target_fps`` (60 -> 30, 60 -> 20) frames are subsampled exactly; otherwise
+    positions, trajectory and confidences are linearly interpolated in time and SMPL parameters
+    (``smpl_poses``, ``smpl_trans``: axis-angles do not interpolate linearly) take the nearest frame.
+    Audio is untouched (it has its own rate).
+    """
+    if clip.motion is None:
+        raise ValueError(f"clip {clip.id!r} has no motion to resample")
+    if target_fps <= 0 or clip.fps <= 0:
+        raise ValueError(f"frame rates must be positive, got fps={clip.fps}, target_fps={target_fps}")
+    if target_fps == clip.fps:
+        return clip
+    frames = clip.motion.shape[0]
+    count = max(1, int(np.floor(frames * target_fps / clip.fps + 1e-9)))
+    times = np.arange(count) * (clip.fps / target_fps)  # positions in original frames
+    ratio = clip.fps / target_fps
+    exact = abs(ratio - round(ratio)) < 1e-9
+    nearest = np.minimum(np.round(times).astype(np.int64), frames - 1)
+
+    def interp(array: np.ndarray, linear: bool) -> np.ndarray:
+        if exact or not linear:
+            return array[nearest]
+        lo = np.minimum(np.floor(times).astype(np.int64), frames - 1)
+        hi = np.minimum(lo + 1, frames - 1)
+        w = (times - lo).reshape((-1,) + (1,) * (array.ndim - 1))
+        return ((1.0 - w) * array[lo] + w * array[hi]).astype(array.dtype)
+
+    meta = dict(clip.meta)
+    for key in PER_FRAME_META:
+        value = clip.meta.get(key)
+        if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == frames:
+            meta[key] = interp(value, linear=not key.startswith("smpl_"))
+    meta["source_fps"] = clip.meta.get("source_fps", clip.fps)
+    trajectory = None if clip.trajectory is None else interp(clip.trajectory, linear=True)
+    return dataclasses.replace(
+        clip, motion=interp(clip.motion, linear=True), fps=float(target_fps), trajectory=trajectory, meta=meta
+    )
+
+
 def hash_split(item_id: str, ratios: Sequence[float] = (0.9, 0.05, 0.05), seed: int = 0) -> str:
     """Deterministic train/val/test assignment of one id (MoMu §5: random 90%/5%/5% splits).
 
@@ -434,6 +481,8 @@ class LazyClipDataset:
             raise ValueError(
                 f"{self.name}: window_seconds must be positive or null, got {cfg.window_seconds}"
             )
+        if cfg.target_fps is not None and cfg.target_fps <= 0:
+            raise ValueError(f"{self.name}: target_fps must be positive or null, got {cfg.target_fps}")
         if cfg.window_offset_seconds < 0:
             raise ValueError(
                 f"{self.name}: window_offset_seconds must be >= 0, got {cfg.window_offset_seconds}"
@@ -453,6 +502,8 @@ class LazyClipDataset:
             raise IndexError(f"{self.name}: index {index} out of range for {n} items")
         ref = self.items[int(index)]
         clip = self.load(ref)
+        if self.cfg.target_fps is not None and clip.motion is not None:
+            clip = resample_motion(clip, self.cfg.target_fps)
         window = self.cfg.window_seconds
         if window is not None:
             try:
