@@ -125,10 +125,18 @@ def _where(dataset: ClipDataset, index: int, exc: BaseException) -> tuple[str, s
     return where, message if isinstance(exc, (OSError, ValueError)) else f"{type(exc).__name__}: {message}"
 
 
-def check_dataset(dataset: ClipDataset) -> CheckReport:
-    """Load every item of ``dataset``; collect statistics and every failure with its file."""
+def check_dataset(dataset: ClipDataset, *, progress: bool = False) -> CheckReport:
+    """Load every item of ``dataset``; collect statistics and every failure with its file.
+
+    Args:
+        dataset: any :class:`~momu.data.types.ClipDataset`.
+        progress: show a progress bar on stderr (only when stderr is a terminal).
+    """
+    from tqdm import tqdm
+
     report = CheckReport(items=len(dataset))
-    for index in range(len(dataset)):
+    bar = tqdm(range(len(dataset)), desc="checking", unit="item", disable=None if progress else True)
+    for index in bar:
         try:
             clip = dataset[index]
         except Exception as exc:  # report and go on: one bad file must not hide the others
@@ -185,6 +193,7 @@ def add_action(actions: Any) -> None:
         metavar="key=value",
         help="dataset options anywhere on the line, e.g. --set split=val load_audio=false",
     )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -200,6 +209,6 @@ def run(args: argparse.Namespace) -> int:
         )
         sys.stdout.write(f"{title}\nBAD {where}: {reason}\nresult: cannot open the dataset\n")
         return 1
-    report = check_dataset(dataset)
+    report = check_dataset(dataset, progress=not args.no_progress)
     sys.stdout.write(report.summary(title) + "\n")
     return 0 if report.ok else 1
