@@ -31,7 +31,9 @@ class Metric(Protocol):
     name: str
     needs_reference: bool
 
-    def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult: ...
+    def __call__(
+        self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None
+    ) -> MetricResult: ...
 
     def provenance(self) -> dict[str, Any]:
         """What a reader needs to trust the number: variant, extractor name and checkpoint hash ..."""
