@@ -151,7 +151,8 @@ def two_step_update(
 
     1. Generator step: ``out = vae(x)``; ``L = L_recon + lambda1 L_KL + w L_G(D(x̂))`` with
        ``w = gan_loss.generator_weight(...)``; the discriminator's parameters do not require
-       gradients during this step, so only ``vae_optimizer``'s parameters receive gradients.
+       gradients during this step (a DDP-wrapped discriminator is called through its ``.module``),
+       so only ``vae_optimizer``'s parameters receive gradients.
     2. Discriminator step: ``L_D(D(x), D(x̂.detach()))``; only ``discriminator_optimizer`` steps.
 
     Args:
@@ -177,8 +178,11 @@ def two_step_update(
     g_loss = torch.zeros((), device=total.device)
     g_weight = torch.zeros((), device=total.device)
     if active:
-        with requires_grad(discriminator, False):
-            g_loss = gan_loss.generator_loss(discriminator(out.reconstruction))
+        # The frozen discriminator is called unwrapped (no DDP forward bookkeeping for a step that
+        # synchronises no discriminator gradients).
+        frozen_disc = getattr(discriminator, "module", discriminator)
+        with requires_grad(frozen_disc, False):
+            g_loss = gan_loss.generator_loss(frozen_disc(out.reconstruction))
             last = getattr(getattr(vae, "module", vae), "last_layer", None)  # unwrap DDP
             g_weight = gan_loss.generator_weight(terms["reconstruction"], g_loss, last)
             total = total + g_weight * g_loss
