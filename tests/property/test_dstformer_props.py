@@ -2,12 +2,25 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
+import pytest
 import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from momu.encoders.dstformer import DSTformer, DSTformerConfig
 from momu.encoders.learnable_motion import LearnableMotionConfig, LearnableMotionEncoder
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_thread() -> Iterator[None]:
+    """Small tensors run fastest on one thread on a shared 2-core machine; restored afterwards."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
 
 torch.manual_seed(0)
 _NET = DSTformer(DSTformerConfig(num_joints=4, dim_in=3, dim_feat=8, dim_rep=4, depth=1, num_heads=2)).eval()
