@@ -22,11 +22,16 @@ def _one_thread() -> Iterator[None]:
     torch.set_num_threads(before)
 
 
-torch.manual_seed(0)
-_NET = DSTformer(DSTformerConfig(num_joints=4, dim_in=3, dim_feat=8, dim_rep=4, depth=1, num_heads=2)).eval()
-_ENC = LearnableMotionEncoder(
-    LearnableMotionConfig(num_joints=4, dim_in=3, dim_feat=8, dim_rep=4, depth=1, num_heads=2, downsample=2)
-).eval()
+with torch.random.fork_rng():
+    torch.manual_seed(0)
+    _NET = DSTformer(
+        DSTformerConfig(num_joints=4, dim_in=3, dim_feat=8, dim_rep=4, depth=1, num_heads=2)
+    ).eval()
+    _ENC = LearnableMotionEncoder(
+        LearnableMotionConfig(
+            num_joints=4, dim_in=3, dim_feat=8, dim_rep=4, depth=1, num_heads=2, downsample=2
+        )
+    ).eval()
 
 
 @settings(deadline=None)
