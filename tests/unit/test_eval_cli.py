@@ -98,6 +98,12 @@ def test_missing_dir_unpaired_and_unknown_metric(tmp_path: Path, capsys: pytest.
     err = capsys.readouterr().err
     assert "not_a_metric" in err and "valid names" in err
     assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "pfc.x=1"]) == 2
+    assert (
+        main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "bas.variant=x"]) == 2
+    )
+    assert "variant" in capsys.readouterr().err
+    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "bas.nope=1"]) == 2
+    assert "valid keys" in capsys.readouterr().err
 
 
 def test_bad_motion_file_and_failing_metric(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -27,7 +27,7 @@ from momu.io import write_json
 from momu.metrics._audio import read_audio
 from momu.registry import METRICS
 
-__all__ = ["add_parser", "run", "collect_folder", "load_pairs", "evaluate"]
+__all__ = ["add_parser", "run", "collect_folder", "load_pairs", "build_metrics", "evaluate"]
 
 logger = logging.getLogger(__name__)
 
@@ -173,19 +173,28 @@ def _metric_params(names: Sequence[str], overrides: Sequence[str]) -> dict[str, 
     return params
 
 
+def build_metrics(names: Sequence[str], params: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """Build each named metric with its parameters (validated); usage errors raise ``ConfigError``."""
+    built: dict[str, Any] = {}
+    for name in names:
+        try:
+            built[name] = METRICS.build(name, params.get(name) or None)
+        except (ValueError, TypeError) as exc:
+            if isinstance(exc, ConfigError):
+                raise
+            raise ConfigError(f"metric '{name}': {exc}") from exc
+    return built
+
+
 def evaluate(
-    generated: Sequence[Clip],
-    reference: Sequence[Clip],
-    names: Sequence[str],
-    params: dict[str, dict[str, Any]],
+    generated: Sequence[Clip], reference: Sequence[Clip], metrics: dict[str, Any]
 ) -> tuple[dict[str, float], dict[str, Any], dict[str, str]]:
-    """Run metrics by name: ``(scores, provenance per metric, errors per metric)``."""
+    """Run built metrics (``name -> metric``): ``(scores, provenance per metric, errors per metric)``."""
     scores: dict[str, float] = {}
     provenance: dict[str, Any] = {}
     errors: dict[str, str] = {}
-    for name in names:
+    for name, metric in metrics.items():
         entry = METRICS.get(name)
-        metric = METRICS.build(name, params.get(name) or None)
         info: dict[str, Any] = {"source": entry.source, "origin": entry.origin}
         try:
             info["provenance"] = metric.provenance()
@@ -217,13 +226,13 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--metrics: give at least one metric name (see `momu list metrics`)")
     for name in names:
         METRICS.get(name)  # unknown names fail before any file is read
-    params = _metric_params(names, args.params)
+    metrics = build_metrics(names, _metric_params(names, args.params))
     try:
         generated, reference = load_pairs(args.gen, args.gt, args.fps, args.skeleton)
     except EvalInputError as exc:
         sys.stderr.write(f"momu eval: error: {exc}\n")
         return 2
-    scores, provenance, errors = evaluate(generated, reference, names, params)
+    scores, provenance, errors = evaluate(generated, reference, metrics)
     sys.stdout.write(_table(scores, errors, len(generated)))
     if args.out is not None:
         from momu import __version__

@@ -92,7 +92,7 @@ def music_onset_envelope(audio: np.ndarray, sr: int, *, recipe: MusicRecipe = "b
     raise ValueError(f"recipe: expected 'bailando' or 'mint', got {recipe!r}")
 
 
-def _track(envelope: np.ndarray, recipe: MusicRecipe, start_bpm: float | None) -> np.ndarray:
+def _track(envelope: np.ndarray, start_bpm: float | None) -> np.ndarray:
     bpm = 120.0 if start_bpm is None else float(start_bpm)
     if not bpm > 0:
         raise ValueError(f"start_bpm: must be > 0, got {start_bpm!r}")
@@ -113,7 +113,7 @@ def music_beat_onehot(
     """
     envelope = music_onset_envelope(audio, sr, recipe=recipe)
     onehot = np.zeros(envelope.shape[0], dtype=bool)
-    onehot[_track(envelope, recipe, start_bpm)] = True
+    onehot[_track(envelope, start_bpm)] = True
     return onehot
 
 
