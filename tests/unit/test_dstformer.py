@@ -165,3 +165,17 @@ def test_learnable_motion_config_validation() -> None:
         LearnableMotionConfig(downsample=0)
     with pytest.raises(ValueError, match="out_channels"):
         LearnableMotionConfig(out_channels=0)
+
+
+def test_learnable_motion_parts_io_round_trip(tmp_path: Path) -> None:
+    from momu.parts_io import load_part, save_part
+
+    cfg = LearnableMotionConfig(
+        num_joints=5, dim_in=2, dim_feat=8, dim_rep=4, depth=1, num_heads=2, downsample=2
+    )
+    enc = LearnableMotionEncoder(cfg).eval()
+    save_part(enc, "encoders", "learnable_motion", cfg, tmp_path / "enc")
+    loaded = load_part(tmp_path / "enc").eval()
+    assert isinstance(loaded, LearnableMotionEncoder) and loaded.cfg == cfg
+    x = torch.randn(2, 6, 5, 2)
+    torch.testing.assert_close(loaded(x), enc(x))
