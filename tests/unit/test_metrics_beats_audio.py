@@ -233,3 +233,28 @@ def test_harmony_score_end_to_end() -> None:
     assert harmony_score(on_beat, SR, np.zeros((150, 3, 3)), fps) == 0.0
     with pytest.raises(EmptyBeatsError):
         harmony_score(np.zeros(SR * 2, dtype=np.float32), SR, m, fps)
+
+
+# --------------------------------------------------------------------- music-beat recipes (§1.5)
+def test_music_beat_recipes_follow_the_reference_calls() -> None:
+    import librosa
+
+    from momu.metrics import music_beat_onehot, music_beats
+
+    y = clicks([0.3, 0.8, 1.3, 1.8, 2.3, 2.8, 3.3], 4.0)  # 120 bpm
+    y30 = librosa.resample(y, orig_sr=SR, target_sr=30720, res_type="soxr_hq")
+    # Bailando: HPSS percussive part, median onset strength, beat_track defaults (start_bpm 120)
+    env = librosa.onset.onset_strength(y=librosa.effects.hpss(y30)[1], aggregate=np.median, sr=30720)
+    _, expected = librosa.beat.beat_track(onset_envelope=env, sr=30720)
+    onehot = music_beat_onehot(y, SR)  # one entry per onset frame, as Bailando's music_array[:, 53]
+    assert onehot.shape == env.shape and np.flatnonzero(onehot).tolist() == expected.tolist()
+    # mint: full-signal mean onset strength, start_bpm prior, tightness 100
+    env = librosa.onset.onset_strength(y=y30, sr=30720)
+    _, expected = librosa.beat.beat_track(
+        onset_envelope=env, sr=30720, hop_length=512, start_bpm=90, tightness=100
+    )
+    assert music_beats(y, SR, recipe="mint", start_bpm=90).tolist() == expected.tolist()
+    # beats at 60 fps: 0.5 s apart = 30 frames
+    assert np.all(np.abs(np.diff(music_beats(y, SR, recipe="mint")) - 30) <= 1)
+    with pytest.raises(ValueError, match="recipe"):
+        music_beats(y, SR, recipe="edge")  # type: ignore[arg-type]
