@@ -41,6 +41,9 @@ def test_bas_metric_from_meta_beat_times_and_sigma_seconds() -> None:
         METRICS.build("bas")([Clip(id="c", motion=motion, fps=60.0)])
     with pytest.raises(ValueError, match="variant"):
         METRICS.build("bas", {"variant": "edge"})
+    static = Clip(id="still", motion=np.zeros((100, 3, 3)), fps=60.0, meta={"beat_times": [0.5]})
+    with pytest.raises(ValueError, match="clip 'still'.*static"):
+        METRICS.build("bas", {"music_beats": "meta"})([static])
 
 
 def test_harmony_and_hit_rate_metrics() -> None:

@@ -208,9 +208,12 @@ class BASMetric(ClipMetric):
             motion = clip_motion(clip, self.name)
             sigma = cfg.sigma if cfg.sigma_seconds is None else cfg.sigma_seconds * clip.fps
             beats = clip_music_beat_frames(clip, self.name, cfg.music_beats, recipe, cfg.start_bpm)
-            scores.append(
-                bas(motion, beats, variant=cfg.variant, sigma=sigma, seed_frames=cfg.seed_frames)  # type: ignore[arg-type]
-            )
+            try:
+                scores.append(
+                    bas(motion, beats, variant=cfg.variant, sigma=sigma, seed_frames=cfg.seed_frames)  # type: ignore[arg-type]
+                )
+            except ValueError as exc:
+                raise type(exc)(f"{self.name}: clip {clip.id!r}: {exc}") from None
         value = float(np.mean(scores)) if cfg.variant == "bailando" else sum(scores) / len(scores)
         return {self.name: value}
 
