@@ -182,6 +182,7 @@ def test_diversity_metric_inter_and_intra() -> None:
 
 def test_metrics_without_extractor_explain_how_to_get_one() -> None:
     metric = METRICS.build("fid_learned")
+    assert metric.provenance()["extractor"] is None
     with pytest.raises(ValueError, match="momu extractor train --kind motion"):
         metric(_motion_clips(2, 0), _motion_clips(2, 1))
     with pytest.raises(ValueError, match="--kind audio"):

@@ -823,10 +823,16 @@ def train_audio_classifier(
     mels = []
     for i in tr_idx:
         clip = usable[i]
-        audio_segments(clip.audio, clip.sample_rate, cfg, f"clip {clip.id!r}")  # validates the length
-        mels.append(
-            momu_mel(check_waveform(clip.audio, clip.sample_rate or 0), clip.sample_rate or 0, cfg.mel)
-        )
+        if clip.sample_rate is None:
+            raise ValueError(f"clip {clip.id!r}: has audio but no sample rate")
+        wave = check_waveform(clip.audio, clip.sample_rate, name=f"clip {clip.id!r}")
+        mel = momu_mel(wave, clip.sample_rate, cfg.mel)
+        if mel.shape[1] < cfg.segment_frames:
+            raise ValueError(
+                f"clip {clip.id!r}: audio shorter than one {cfg.segment_frames}-frame segment "
+                f"({mel.shape[1]} mel frames)"
+            )
+        mels.append(mel)
     stacked = np.concatenate(mels, axis=1)
     model = AudioClassifier(cfg)
     model.mel_mean.copy_(torch.from_numpy(stacked.mean(axis=1)))

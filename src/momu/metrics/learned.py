@@ -306,10 +306,18 @@ class _LearnedMetric:
         return ext
 
     def provenance(self) -> dict[str, Any]:
+        """Metric config plus the extractor's kind, config, checkpoint path and sha256.
+
+        ``extractor`` is ``None`` when none is configured yet; an in-memory extractor has no checkpoint
+        hash (``sha256: None``) — save it with ``save_extractor`` to get one.
+        """
+        extractor = None
+        if self._extractor is not None or self.cfg.extractor:
+            extractor = self.extractor.provenance()
         return {
             "metric": self.name,
             "config": dataclasses.asdict(self.cfg),
-            "extractor": self.extractor.provenance(),
+            "extractor": extractor,
             "spec": "METRICS.md §3.1; MoMu-Diffusion App. B.4–B.5",
         }
 
