@@ -40,7 +40,12 @@ def tiny_unet(**kw: object) -> UNet1D:
     return BACKBONES.build("unet1d", params).eval()
 
 
-BUILDERS = {"dit": tiny_dit, "unet1d": tiny_unet}
+def tiny_dit_aligned(**kw: object) -> DiT:
+    return tiny_dit(positions="aligned", **kw)
+
+
+BUILDERS = {"dit": tiny_dit, "dit_aligned": tiny_dit_aligned, "unet1d": tiny_unet}
+ALL = list(BUILDERS)
 
 
 @pytest.mark.parametrize("name", ["dit", "unet1d"])
@@ -74,14 +79,14 @@ def test_unet_paper_defaults_are_mofusion_supp() -> None:
     assert cfg.heads == 16 and cfg.cross_attention_dim == 1024 and len(cfg.channel_mults) == 3
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_protocol_attributes(name: str) -> None:
     model = BUILDERS[name]()
     assert model.in_channels == 4 and model.cond_channels == 3
-    assert model.max_length == (64 if name == "dit" else None)
+    assert model.max_length == (None if name == "unet1d" else 64)
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_dropped_condition_equals_no_condition(name: str) -> None:
     model = BUILDERS[name]()
     x, cond, t = torch.randn(3, 16, 4), torch.randn(3, 5, 3), torch.tensor([1, 50, 900])
@@ -96,7 +101,7 @@ def test_dropped_condition_equals_no_condition(name: str) -> None:
     assert not torch.allclose(full[1], none[1], atol=1e-4)
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_condition_content_matters_but_padding_does_not(name: str) -> None:
     model = BUILDERS[name]()
     x, t = torch.randn(1, 16, 4), torch.tensor([10])
@@ -108,7 +113,7 @@ def test_condition_content_matters_but_padding_does_not(name: str) -> None:
     torch.testing.assert_close(model(x, t, padded, cond_mask=cmask), a, atol=1e-5, rtol=1e-5)
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_batched_variable_length_equals_individual(name: str) -> None:
     model = BUILDERS[name]()
     lengths = [16, 9, 3]
@@ -123,7 +128,7 @@ def test_batched_variable_length_equals_individual(name: str) -> None:
         assert torch.all(batched[i, n:] == 0)
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_unconditional_model(name: str) -> None:
     model = BUILDERS[name](cond_channels=0)
     x, t = torch.randn(2, 12, 4), torch.tensor([3, 4])
@@ -139,7 +144,7 @@ def test_unet_any_length(length: int) -> None:
     assert model(x, torch.tensor([1, 2]), torch.randn(2, 3, 3)).shape == (2, length, 4)
 
 
-@pytest.mark.parametrize("name", ["dit", "unet1d"])
+@pytest.mark.parametrize("name", ALL)
 def test_bad_inputs_name_the_argument(name: str) -> None:
     model = BUILDERS[name]()
     x, t, c = torch.randn(2, 8, 4), torch.tensor([1, 2]), torch.randn(2, 3, 3)
@@ -157,6 +162,13 @@ def test_bad_inputs_name_the_argument(name: str) -> None:
         model(torch.full((2, 8, 4), float("nan")), t, c)
 
 
+def test_dit_aligned_positions_bound_each_sequence() -> None:
+    model = tiny_dit(max_length=10, positions="aligned")
+    model(torch.randn(1, 10, 4), torch.tensor([1]), torch.randn(1, 10, 3))  # each ≤ 10
+    with pytest.raises(ValueError, match="latent or condition length 11 exceeds dit.max_length=10"):
+        model(torch.randn(1, 5, 4), torch.tensor([1]), torch.randn(1, 11, 3))
+
+
 def test_dit_max_length_is_enforced() -> None:
     model = tiny_dit(max_length=20)
     model(torch.randn(1, 10, 4), torch.tensor([1]), torch.randn(1, 9, 3))  # 10 + 9 + 1 = 20 fits
@@ -164,9 +176,10 @@ def test_dit_max_length_is_enforced() -> None:
         model(torch.randn(1, 11, 4), torch.tensor([1]), torch.randn(1, 9, 3))
 
 
-def test_dit_pad_to_max_is_a_no_op() -> None:
-    a = tiny_dit()
-    b = tiny_dit(pad_to_max=True)
+@pytest.mark.parametrize("positions", ["concat", "aligned"])
+def test_dit_pad_to_max_is_a_no_op(positions: str) -> None:
+    a = tiny_dit(positions=positions)
+    b = tiny_dit(pad_to_max=True, positions=positions)
     b.load_state_dict(a.state_dict())
     x, t, c = torch.randn(2, 10, 4), torch.tensor([1, 700]), torch.randn(2, 6, 3)
     torch.testing.assert_close(a(x, t, c), b(x, t, c), atol=1e-5, rtol=1e-5)
@@ -178,6 +191,8 @@ def test_dit_pad_to_max_is_a_no_op() -> None:
         ({"hidden": 30, "heads": 4}, "divisible"),
         ({"proj_kernel_size": 4}, "odd"),
         ({"depth": 0}, "depth must be positive"),
+        ({"positions": "relative"}, "positions"),
+        ({"positions": "aligned", "segment_embeddings": False}, "segment_embeddings"),
     ],
 )
 def test_dit_config_errors(kw: dict[str, object], match: str) -> None:

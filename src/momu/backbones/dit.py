@@ -33,6 +33,7 @@ from momu.backbones.blocks import (
     check_backbone_inputs,
     check_prefix_mask,
     scaled_init_std,
+    sinusoidal_embedding,
 )
 from momu.registry import BACKBONES
 
@@ -61,6 +62,12 @@ class DiTConfig:
         pad_to_max: physically pad every batch to ``max_length`` (static shapes, as the paper
             describes). Padded tokens are masked, so this changes cost, never the result.
         time_freq_dim: sinusoidal frequencies fed to the timestep MLP.
+        positions: ``concat`` (MoMu §4 read literally): positions of the fused sequence
+            ``[x | cond | t]``, so condition frame k sits at position L_x + k; ``aligned``:
+            condition frame k shares latent frame k's position (the latents of MoMu's aligned
+            space have the same frame rate) and the timestep token sits at 0, which makes the
+            frame-to-frame correspondence directly visible to attention. Requires
+            ``segment_embeddings``. ``max_length`` then bounds each of L_x and L_c.
         segment_embeddings: add a learned type embedding (latent / condition / timestep) to
             each token, so the model need not infer the segment from content (not in the paper).
         dropout: dropout in attention and feed-forward layers.
@@ -76,6 +83,7 @@ class DiTConfig:
     proj_kernel_size: int = 5
     max_length: int = 1024
     pad_to_max: bool = False
+    positions: str = "concat"
     time_freq_dim: int = 256
     segment_embeddings: bool = True
     dropout: float = 0.0
@@ -101,6 +109,12 @@ class DiT(nn.Module):
             )
         if cfg.hidden % cfg.heads:
             raise ValueError(f"dit.hidden={cfg.hidden} is not divisible by dit.heads={cfg.heads}")
+        if cfg.positions not in ("concat", "aligned"):
+            raise ValueError(f"dit.positions must be 'concat' or 'aligned', got {cfg.positions!r}")
+        if cfg.positions == "aligned" and not cfg.segment_embeddings:
+            raise ValueError(
+                "dit.positions='aligned' needs dit.segment_embeddings=True (tokens share positions)"
+            )
         if cfg.time_freq_dim % 2:
             raise ValueError(f"dit.time_freq_dim must be even, got {cfg.time_freq_dim}")
         self.cfg = cfg
@@ -119,7 +133,8 @@ class DiT(nn.Module):
                 nn.Linear(cfg.cond_channels, cfg.cond_embed_dim), nn.GELU(), nn.Linear(cfg.cond_embed_dim, h)
             )
             self.null_cond = nn.Parameter(torch.randn(h) * scaled_init_std(h))
-        self.pos_embed = nn.Parameter(torch.randn(cfg.max_length, h) * scaled_init_std(h))
+        # learned positions, initialised with the sinusoidal table (DiT's fixed sin-cos embedding)
+        self.pos_embed = nn.Parameter(sinusoidal_embedding(torch.arange(cfg.max_length), h))
         self.segment_embed = nn.Embedding(3, h) if cfg.segment_embeddings else None
         self.blocks = nn.ModuleList(
             [TransformerBlock(h, cfg.heads, None, cfg.mlp_ratio, cfg.dropout) for _ in range(cfg.depth)]
@@ -201,16 +216,27 @@ class DiT(nn.Module):
         mask = torch.cat(masks, dim=1)
 
         total = len_x + len_c + 1
-        if self.max_length is not None and int(total.max()) > self.max_length:
-            raise ValueError(
-                f"x/cond: fused length {int(total.max())} (latent + condition + 1 timestep token) exceeds "
-                f"dit.max_length={self.max_length}; raise max_length or shorten the sequence"
+        aligned = self.cfg.positions == "aligned"
+        needed = torch.maximum(len_x, len_c) if aligned else total
+        if int(needed.max()) > self.cfg.max_length:
+            what = (
+                "latent or condition length"
+                if aligned
+                else "fused length (latent + condition + 1 timestep token)"
             )
-        # positions of the per-item concatenation [x valid | cond valid | t]
+            raise ValueError(
+                f"x/cond: {what} {int(needed.max())} exceeds dit.max_length={self.cfg.max_length}; "
+                "raise max_length or shorten the sequence"
+            )
         pos = [torch.arange(length, device=dev).expand(b, -1)]
-        if c_tok is not None:
-            pos.append(len_x[:, None] + torch.arange(c_tok.shape[1], device=dev)[None, :])
-        pos.append(total[:, None] - 1)
+        if aligned:  # condition frame k sits at the position of latent frame k; t token at 0
+            if c_tok is not None:
+                pos.append(torch.arange(c_tok.shape[1], device=dev).expand(b, -1))
+            pos.append(torch.zeros(b, 1, dtype=torch.long, device=dev))
+        else:  # positions of the per-item concatenation [x valid | cond valid | t] (MoMu §4)
+            if c_tok is not None:
+                pos.append(len_x[:, None] + torch.arange(c_tok.shape[1], device=dev)[None, :])
+            pos.append(total[:, None] - 1)
         pos_ids = torch.cat(pos, dim=1).clamp_max(self.cfg.max_length - 1)
         tokens = tokens + self.pos_embed[pos_ids].to(tokens.dtype)
         if self.segment_embed is not None:
@@ -220,8 +246,9 @@ class DiT(nn.Module):
             seg.append(torch.full((1,), 2, dtype=torch.long, device=dev))
             tokens = tokens + self.segment_embed(torch.cat(seg))[None].to(tokens.dtype)
 
-        if self.cfg.pad_to_max and tokens.shape[1] < self.cfg.max_length:
-            extra = self.cfg.max_length - tokens.shape[1]
+        capacity = 2 * self.cfg.max_length + 1 if aligned else self.cfg.max_length
+        if self.cfg.pad_to_max and tokens.shape[1] < capacity:
+            extra = capacity - tokens.shape[1]
             tokens = F.pad(tokens, (0, 0, 0, extra))
             mask = F.pad(mask, (0, extra), value=False)
 
