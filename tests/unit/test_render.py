@@ -302,3 +302,45 @@ def test_mp4_without_imageio_ffmpeg_says_what_to_install(tmp_path: Path) -> None
     with pytest.raises(RuntimeError, match="pip install imageio-ffmpeg"):
         skeleton_animation(tmp_path / "a.mp4", _rest_motion("smpl24", 3), FPS, "smpl24")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_mp4_has_video_and_audio_streams(tmp_path: Path) -> None:
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    path = tmp_path / "a.mp4"
+    motion = _jerky_motion(10, [3])
+    # odd pixel sizes (99 x 128): the h264 writer rounds them to even sizes
+    skeleton_animation(
+        path, motion, 20.0, "smpl24", audio=_clicks([0.1], 1.0), sample_rate=SR, figsize=(1.0, 1.0), dpi=99
+    )
+    probe = subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(path)], capture_output=True, text=True
+    )
+    streams = [line for line in probe.stderr.splitlines() if "Stream #" in line]
+    assert any("Video: h264" in s and "20 fps" in s for s in streams)
+    assert any("Audio: aac" in s for s in streams)
+    assert "Duration: 00:00:00.50" in probe.stderr  # cut to the 0.5 s motion (-shortest)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mp4"]
+
+
+# ----------------------------------------------------------------------------------- Clip helpers
+def test_clip_helpers_use_the_clips_fields(tmp_path: Path) -> None:
+    from momu.data.types import Clip
+    from momu.render import clip_animation, clip_beat_figure
+
+    motion = _jerky_motion(60, [15, 45]).astype(np.float32)
+    clip = Clip(
+        id="c0", motion=motion, fps=FPS,
+        audio=_clicks([0.5, 1.0, 1.5], 2.0), sample_rate=SR, skeleton="smpl24",
+    )  # fmt: skip
+    s = clip_beat_figure(tmp_path / "c0.png", clip, music_beats=[0.5], figsize=(3.0, 2.0), dpi=30)
+    assert s.music_beats == (0.5,) and s.motion_beats == (0.5, 1.5)
+    with Image.open(tmp_path / "c0.png") as im:
+        assert im.size == (90, 60)
+    short = Clip(id="c1", motion=motion[:4], fps=FPS, skeleton="smpl24", trajectory=np.zeros((4, 3)))
+    clip_animation(tmp_path / "c1.gif", short, figsize=(1.0, 1.0), dpi=20)
+    with Image.open(tmp_path / "c1.gif") as im:
+        assert im.size == (20, 20)  # no audio: no waveform panel
+    with pytest.raises(ValueError, match="clip 'c1': has no audio"):
+        clip_beat_figure(tmp_path / "c1.png", short)
+    with pytest.raises(ValueError, match="clip 'm': has no motion"):
+        clip_animation(tmp_path / "m.gif", Clip(id="m", motion=None, fps=FPS, skeleton="smpl24"))

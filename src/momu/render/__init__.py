@@ -7,14 +7,17 @@ called and draws on its own Agg canvas (no pyplot state, no backend switch).
   kinematic amplitude with its beats, poses at the beats) — :mod:`momu.render.beat_plot`.
 - :func:`draw_skeleton`: one pose on a matplotlib ``Axes`` — :mod:`momu.render.skeleton`.
 - :func:`skeleton_animation`: an animated GIF (or MP4 with sound, with ``imageio-ffmpeg``).
+- :func:`clip_beat_figure` / :func:`clip_animation`: the same from a :class:`~momu.data.types.Clip`.
 """
 
-from momu.render.beat_plot import BeatFigureSummary, beat_matching_figure, waveform_envelope
-from momu.render.skeleton import draw_skeleton, screen_coordinates, skeleton_animation
+from momu.render.beat_plot import BeatFigureSummary, beat_matching_figure, clip_beat_figure, waveform_envelope
+from momu.render.skeleton import clip_animation, draw_skeleton, screen_coordinates, skeleton_animation
 
 __all__ = [
     "BeatFigureSummary",
     "beat_matching_figure",
+    "clip_animation",
+    "clip_beat_figure",
     "draw_skeleton",
     "screen_coordinates",
     "skeleton_animation",

@@ -43,6 +43,7 @@ from momu.render.skeleton import draw_skeleton, new_figure, resolve_skeleton, sc
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from matplotlib.axes import Axes
 
+    from momu.data.types import Clip
     from momu.features.skeletons import Skeleton
 
 __all__ = [
@@ -50,6 +51,7 @@ __all__ = [
     "BeatFigureSummary",
     "waveform_envelope",
     "beat_matching_figure",
+    "clip_beat_figure",
 ]
 
 logger = logging.getLogger(__name__)
@@ -323,6 +325,30 @@ def beat_matching_figure(
         fig.savefig(tmp, format=path.suffix.lower().lstrip("."), dpi=dpi)
     logger.debug("wrote beat-matching figure %s", path)
     return summary
+
+
+def clip_beat_figure(path: str | Path, clip: Clip, **kwargs: Any) -> BeatFigureSummary:
+    """:func:`beat_matching_figure` of a :class:`~momu.data.types.Clip` (its audio, motion, fps, skeleton).
+
+    ``title`` defaults to the clip id; other keyword arguments are passed on. Raises ``ValueError``
+    naming the clip when it has no audio, no motion or no skeleton name.
+    """
+    if clip.audio is None or not clip.sample_rate:
+        raise ValueError(f"clip {clip.id!r}: has no audio (or no sample rate) to plot")
+    if clip.motion is None:
+        raise ValueError(f"clip {clip.id!r}: has no motion to plot")
+    if not clip.skeleton:
+        raise ValueError(f"clip {clip.id!r}: has no skeleton name")
+    kwargs.setdefault("title", clip.id)
+    return beat_matching_figure(
+        path,
+        audio=clip.audio,
+        sample_rate=int(clip.sample_rate),
+        motion=clip.motion,
+        fps=clip.fps,
+        skeleton=clip.skeleton,
+        **kwargs,
+    )
 
 
 def _draw_strip(

@@ -36,6 +36,8 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
+    from momu.data.types import Clip
+
 __all__ = [
     "LEFT_COLOR",
     "RIGHT_COLOR",
@@ -45,6 +47,7 @@ __all__ = [
     "bone_colors",
     "draw_skeleton",
     "skeleton_animation",
+    "clip_animation",
 ]
 
 logger = logging.getLogger(__name__)
@@ -365,11 +368,9 @@ def skeleton_animation(
         else:
             assert ffmpeg is not None
             with matplotlib.rc_context({"animation.ffmpeg_path": ffmpeg}):
-                writer = animation.FFMpegWriter(
-                    fps=play_fps,  # type: ignore[arg-type]
-                    codec="libx264",
-                    extra_args=["-pix_fmt", "yuv420p"],
-                )
+                # codec "h264": matplotlib then rounds the frame to even pixel sizes and adds
+                # -pix_fmt yuv420p (playable by browsers and QuickTime).
+                writer = animation.FFMpegWriter(fps=play_fps, codec="h264")  # type: ignore[arg-type]
                 if wave is None:
                     anim.save(str(tmp), writer=writer, dpi=dpi)
                 else:
@@ -382,3 +383,28 @@ def skeleton_animation(
                         silent.unlink(missing_ok=True)
     logger.debug("wrote %d-frame animation %s (%.2f fps)", len(frames), path, play_fps)
     return path
+
+
+def clip_animation(path: str | Path, clip: Clip, *, with_audio: bool = True, **kwargs: Any) -> Path:
+    """:func:`skeleton_animation` of a :class:`~momu.data.types.Clip`.
+
+    Uses the clip's motion, fps and skeleton, its ``trajectory`` (root-centred clips are drawn moving
+    through space) and, with ``with_audio``, its audio. ``title`` defaults to the clip id; other keyword
+    arguments are passed on. Raises ``ValueError`` naming the clip when it has no motion or skeleton.
+    """
+    if clip.motion is None:
+        raise ValueError(f"clip {clip.id!r}: has no motion to animate")
+    if not clip.skeleton:
+        raise ValueError(f"clip {clip.id!r}: has no skeleton name")
+    kwargs.setdefault("title", clip.id)
+    kwargs.setdefault("trajectory", clip.trajectory)
+    audio = clip.audio if with_audio and clip.sample_rate else None
+    return skeleton_animation(
+        path,
+        clip.motion,
+        clip.fps,
+        clip.skeleton,
+        audio=audio,
+        sample_rate=clip.sample_rate if audio is not None else None,
+        **kwargs,
+    )
