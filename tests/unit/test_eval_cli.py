@@ -116,3 +116,37 @@ def test_bad_motion_file_and_failing_metric(tmp_path: Path, capsys: pytest.Captu
     assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "pfc", "--out", str(out)]) == 1
     data = json.loads(out.read_text())
     assert "never accelerates" in data["errors"]["pfc"] and data["scores"] == {}
+
+
+def test_any_registered_metric_runs_by_name(tmp_path: Path) -> None:
+    from dataclasses import dataclass
+
+    from momu.registry import METRICS
+
+    @dataclass
+    class FramesConfig:
+        scale: float = 1.0
+
+    class Frames:
+        name, needs_reference = "test_total_frames", True
+
+        def __init__(self, cfg: FramesConfig) -> None:
+            self.cfg = cfg
+
+        def __call__(self, generated, reference=None):  # type: ignore[no-untyped-def]
+            return {self.name: self.cfg.scale * sum(c.num_frames for c in generated) / len(reference)}
+
+        def provenance(self) -> dict[str, object]:
+            return {"scale": self.cfg.scale}
+
+    METRICS.register("test_total_frames", config=FramesConfig)(Frames)
+    try:
+        gen, gt = make_pair_dirs(tmp_path)
+        out = tmp_path / "s.json"
+        args = ["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "test_total_frames", "--fps", "30"]
+        assert main([*args, "--set", "test_total_frames.scale=2", "--out", str(out)]) == 0
+        data = json.loads(out.read_text())
+        assert data["scores"]["test_total_frames"] == 2 * 150 * 2 / 2  # two 150-frame clips, two references
+        assert data["metrics"]["test_total_frames"]["provenance"] == {"scale": 2.0}
+    finally:
+        METRICS.unregister("test_total_frames")
