@@ -263,7 +263,7 @@ def beat_matching_figure(
     # ---- figure
     rows = 3 if max_strip > 0 else 2
     fig = new_figure(figsize=figsize, dpi=dpi)
-    grid = fig.add_gridspec(rows, 1, height_ratios=[1.0, 1.0, 1.5][:rows], hspace=0.35)
+    grid = fig.add_gridspec(rows, 1, height_ratios=[1.0, 1.0, 1.5][:rows], hspace=0.45)
     ax_music = fig.add_subplot(grid[0])
     ax_motion = fig.add_subplot(grid[1], sharex=ax_music)
     beat_style = {"color": MUSIC_BEAT_COLOR, "linestyle": "--", "linewidth": 1.0}
