@@ -49,7 +49,8 @@ def test_clip_contents_and_units() -> None:
     assert lo <= clip.meta["bpm"] <= hi
     np.testing.assert_allclose(np.diff(beats), 60.0 / clip.meta["bpm"])
     # feet on the floor (Y up, metres), dancer about SMPL height
-    assert clip.motion[..., 1].min() == pytest.approx(0.0, abs=1e-6)
+    feet = clip.motion[:, [7, 8, 10, 11], 1].min(axis=1)  # ankles and feet: soft floor contact
+    assert np.all(feet >= -1e-6) and np.all(feet <= 0.01 * np.log(4) + 1e-6)
     assert 1.3 < np.median(clip.motion[:, 15, 1]) < 1.8  # head joint
 
 
@@ -248,3 +249,23 @@ def test_cli_writes_and_rejects_bad_options(tmp_path: Path, capsys: pytest.Captu
     assert momu_main([*args, "--seconds", "0"]) == 2
     with pytest.raises(SystemExit):
         momu_main([*args, "--skeleton", "nope"])
+
+
+def test_breaks_silence_the_music_and_the_motion_flows_through() -> None:
+    cfg = replace(SMALL, min_seconds=20.0, max_seconds=20.0, break_prob=0.5)
+    clip = generate_clip(cfg, 1)
+    beats = np.asarray(clip.meta["beat_times"])
+    onsets = np.asarray(clip.meta["onset_times"])
+    keys = np.asarray(clip.meta["motion_beat_times"])
+    breaks = clip.meta["break_times"]
+    assert breaks and set(onsets) <= set(beats) and len(onsets) < len(beats)
+    for start, end in breaks:
+        assert np.any(np.isclose(onsets, start))  # the break's downbeat sounds ...
+        assert not np.any((onsets > start + 1e-6) & (onsets < end - 1e-6))  # ... then no attack
+        assert not np.any((keys > start + 0.2) & (keys < end - 0.2))  # one slow move, no key pose
+        assert np.any(np.abs(keys - start) < 0.1)  # the dancer hits a pose on the downbeat
+    # the beat grid continues through breaks
+    np.testing.assert_allclose(np.diff(beats), 60.0 / clip.meta["bpm"])
+
+    plain = generate_clip(replace(cfg, break_prob=0.0), 1)
+    assert plain.meta["break_times"] == [] and plain.meta["onset_times"] == plain.meta["beat_times"]

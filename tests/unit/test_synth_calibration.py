@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter1d
 from scipy.optimize import linear_sum_assignment
-from scipy.signal import argrelextrema
+from scipy.signal import argrelextrema, find_peaks
 
 from momu.data.synth import STYLE_NAMES, SynthConfig, generate_clip
 from momu.data.types import Clip
@@ -35,13 +35,21 @@ def f_measure(estimated: np.ndarray, reference: np.ndarray, window: float = 0.07
     return 0.0 if matched == 0 else 2 * precision * recall / (precision + recall)
 
 
-def velocity_minima(clip: Clip, sigma: float = 5 / 60) -> np.ndarray:
-    """Times (s) of local minima of the summed joint speed (HarmoGAN Eq. 2-3 style kinematic beats)."""
+def velocity_minima(clip: Clip, sigma: float = 5 / 60, prominence: float = 0.0) -> np.ndarray:
+    """Times (s) of local minima of the summed joint speed (HarmoGAN Eq. 2-3 style kinematic beats).
+
+    ``sigma``: Gaussian smoothing of the speed in seconds (Bailando's BAS: 5 frames at 60 fps);
+    ``prominence``: keep minima at least this fraction of the clip's peak speed below their
+    neighbouring maxima (0 keeps every minimum at least 0.1 s from a lower one).
+    """
     assert clip.motion is not None
     speed = np.linalg.norm(np.diff(clip.motion, axis=0), axis=-1).sum(-1)
-    if sigma > 0:  # as Bailando's BAS smooths (5 frames at 60 fps)
+    if sigma > 0:
         speed = gaussian_filter1d(speed, sigma * clip.fps)
-    idx = argrelextrema(speed, np.less, order=max(1, round(0.1 * clip.fps)))[0]
+    if prominence > 0:
+        idx = find_peaks(-speed, prominence=prominence * speed.max())[0]
+    else:
+        idx = argrelextrema(speed, np.less, order=max(1, round(0.1 * clip.fps)))[0]
     return (idx + 0.5) / clip.fps  # speed between frames i and i+1
 
 
@@ -62,7 +70,7 @@ def test_librosa_onsets_recover_the_beat_grid(clips: list[Clip]) -> None:
     scores: dict[str, list[float]] = {s: [] for s in STYLE_NAMES}
     for clip in clips:
         onsets = librosa.onset.onset_detect(y=clip.audio, sr=clip.sample_rate, units="time", **MOMU_ONSET)
-        scores[str(clip.style)].append(f_measure(onsets, np.asarray(clip.meta["beat_times"])))
+        scores[str(clip.style)].append(f_measure(onsets, np.asarray(clip.meta["onset_times"])))
     per_style = {s: float(np.mean(v)) for s, v in scores.items()}
     print("onset F-measure (70 ms) per style:", {s: round(v, 3) for s, v in per_style.items()})
     assert min(per_style.values()) >= 0.9
@@ -77,28 +85,61 @@ def test_motion_velocity_minima_sit_on_the_motion_beats(clips: list[Clip]) -> No
         beats = np.asarray(clip.meta["motion_beat_times"])
         beats = beats[(beats > 0.2) & (beats < clip.duration - 0.2)]
         d = np.min(np.abs(beats[:, None] - minima[None, :]), axis=1)
-        assert np.all(d <= 1.0 / clip.fps + 1e-9), (clip.style, d.max())
+        assert np.all(d <= 1.5 / clip.fps), (clip.style, d.max())
 
 
 def test_ground_truth_pairs_beat_shuffled_pairs(clips: list[Clip]) -> None:
     n = len(clips)
     minima = [velocity_minima(c) for c in clips]
-    gt = [alignment(np.asarray(c.meta["beat_times"]), m) for c, m in zip(clips, minima, strict=True)]
+    gt = [alignment(np.asarray(c.meta["onset_times"]), m) for c, m in zip(clips, minima, strict=True)]
     shuffled = []
     for i in range(n):
         for shift in (5, 11):  # music of another clip (different style and tempo), cut to the motion length
             other = clips[(i + shift) % n]
-            beats = np.asarray(other.meta["beat_times"])
+            beats = np.asarray(other.meta["onset_times"])
             shuffled.append(alignment(beats[beats < clips[i].duration], minima[i]))
     print(f"beat alignment: ground truth {np.mean(gt):.3f}, shuffled {np.mean(shuffled):.3f}")
-    assert np.mean(gt) >= 0.85
+    assert np.mean(gt) >= 0.8
     assert np.mean(gt) - np.mean(shuffled) >= 0.3
     assert min(gt) > np.median(shuffled)
 
 
+def second_bins(times: np.ndarray, duration: float) -> np.ndarray:
+    """LORIS-style beat vector: one boolean per started second, True where an event falls."""
+    bins = np.zeros(int(np.ceil(duration)), bool)
+    idx = np.asarray(times, dtype=np.float64).astype(int)
+    bins[idx[(idx >= 0) & (idx < bins.size)]] = True
+    return bins
+
+
+def test_breaks_make_one_second_bin_scores_discriminative(clips: list[Clip]) -> None:
+    """Music breaks leave onset-free seconds, so 1-s-bin scores (MoMu B.4-B.5, LORIS) separate pairs."""
+    onsets = [
+        second_bins(
+            librosa.onset.onset_detect(y=c.audio, sr=c.sample_rate, units="time", **MOMU_ONSET), c.duration
+        )
+        for c in clips
+    ]
+    moves = [second_bins(velocity_minima(c, prominence=0.1), c.duration) for c in clips]
+    assert np.mean([1 - o.mean() for o in onsets]) >= 0.1  # at least 10 % of the seconds are silent
+
+    def f1(motion_bins: np.ndarray, music_bins: np.ndarray) -> float:
+        n = min(motion_bins.size, music_bins.size)
+        a, b = motion_bins[:n], music_bins[:n]
+        hit = float((a & b).sum())
+        return 0.0 if hit == 0 else 2 * hit / (a.sum() + b.sum())
+
+    n = len(clips)
+    gt = np.mean([f1(moves[i], onsets[i]) for i in range(n)])
+    shuffled = np.mean([f1(moves[i], onsets[(i + s) % n]) for i in range(n) for s in (5, 11)])
+    print(f"1-s-bin F1 of motion beats vs music onsets: ground truth {gt:.3f}, shuffled {shuffled:.3f}")
+    assert gt - shuffled >= 0.05
+
+
 def _tempo_feature(clip: Clip) -> np.ndarray:
     """The motion's beat period: median interval (s) between its kinematic beats."""
-    return np.array([np.median(np.diff(velocity_minima(clip)))])
+    intervals = np.diff(velocity_minima(clip))
+    return np.array([np.median(intervals[intervals < 1.1])])  # longer intervals: breaks
 
 
 def _pose_features(clip: Clip) -> np.ndarray:

@@ -79,10 +79,18 @@ class SynthConfig:
         styles: styles to cycle through (``ballet``, ``hiphop``, ``zumba``, ``techno``).
         seed: dataset seed.
         phase_jitter: standard deviation (seconds) of each motion beat's offset from its music beat.
+        attack, release: shape of every move's speed profile ``u^attack (1 - u)^release`` over its
+            beat (``u`` from 0 to 1; 1, 1 = smoothstep). A small ``attack`` starts moves sharply on
+            the beat (more MoMu Eq. 2 kinematic beats detected) but moves Bailando-style smoothed
+            velocity minima away from it (lower BAS); the defaults balance the two.
         motion_noise: standard deviation (radians) of smooth noise added to every joint angle.
         noise_smoothing: time constant (seconds) of that noise's Gaussian smoothing.
         amplitude_range: range of the per-move amplitude factor applied to key poses.
         audio_noise: standard deviation of white noise added to the music (peak 0.85).
+        break_prob: probability that a bar (from the third on) opens a *break*: its downbeat
+            sounds, then only the held chord until the break ends, while the dancer hits a pose on
+            that downbeat and flows slowly, in one move, to the next section (0 = no breaks).
+        max_break_bars: a break lasts 1 to this many bars.
         trajectory_radius: the dancer's steps stay within this many metres of the origin
             (0 = dance in place).
         root_centred: store motion relative to the root joint and the root's path in
@@ -99,10 +107,14 @@ class SynthConfig:
     styles: list[str] = field(default_factory=lambda: list(DEFAULT_STYLES))
     seed: int = 0
     phase_jitter: float = 0.02
+    attack: float = 1.0
+    release: float = 1.0
     motion_noise: float = 0.01
     noise_smoothing: float = 0.05
     amplitude_range: list[float] = field(default_factory=lambda: [0.75, 1.25])
     audio_noise: float = 0.005
+    break_prob: float = 0.25
+    max_break_bars: int = 2
     trajectory_radius: float = 1.0
     root_centred: bool = False
     camera: CameraConfig = field(default_factory=CameraConfig)
@@ -125,6 +137,12 @@ def validate_config(cfg: SynthConfig) -> None:
     bad = [s for s in cfg.styles if s not in STYLE_NAMES]
     if bad:
         raise ValueError(f"unknown styles {bad}; valid: {', '.join(STYLE_NAMES)}")
+    if not (cfg.attack > 0 and cfg.release > 0):
+        raise ValueError(f"attack and release must be > 0, got {cfg.attack} and {cfg.release}")
+    if not 0.0 <= cfg.break_prob <= 1.0:
+        raise ValueError(f"break_prob must be in [0, 1], got {cfg.break_prob}")
+    if cfg.max_break_bars < 1:
+        raise ValueError(f"max_break_bars must be >= 1, got {cfg.max_break_bars}")
     for name in ("phase_jitter", "motion_noise", "noise_smoothing", "audio_noise", "trajectory_radius"):
         if getattr(cfg, name) < 0:
             raise ValueError(f"{name} must be >= 0, got {getattr(cfg, name)}")
@@ -147,6 +165,38 @@ def split_of(index: int, num_styles: int) -> str:
     return _SPLIT_CYCLE[(index // max(num_styles, 1)) % len(_SPLIT_CYCLE)]
 
 
+def plan_breaks(
+    rng: np.random.Generator, num_bars: int, prob: float, max_bars: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which bars are breaks: ``(is_break, opens)``, both ``(num_bars,)`` bool.
+
+    From the third bar on, a bar opens a break with probability ``prob``; the break lasts 1 to
+    ``max_bars`` bars (uniform) and is followed by at least one normal bar. ``opens`` marks each
+    break's first bar (the one whose downbeat still sounds).
+    """
+    is_break = np.zeros(num_bars, bool)
+    opens = np.zeros(num_bars, bool)
+    draws = rng.random(num_bars)
+    spans = rng.integers(1, max(1, max_bars) + 1, num_bars)
+    b = 2
+    while b < num_bars:
+        if draws[b] < prob:
+            span = int(min(spans[b], num_bars - b))
+            opens[b] = True
+            is_break[b : b + span] = True
+            b += span + 1
+        else:
+            b += 1
+    return is_break, opens
+
+
+def _span(is_break: np.ndarray, opens: np.ndarray, b: int) -> int:
+    n = 1
+    while b + n < is_break.size and is_break[b + n] and not opens[b + n]:
+        n += 1
+    return n
+
+
 def _clip_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), int(index)])))
 
@@ -156,9 +206,10 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
 
     Returns a :class:`Clip` with ``motion`` ``(T, J, D)`` float32 (metres for 3D, pixels for 2D),
     ``audio`` ``(S,)`` float32 at ``cfg.sample_rate`` with ``S = round(T / fps * sample_rate)``,
-    ``style``, and ``meta`` holding ``beat_times`` / ``downbeat_times`` (music beats, seconds),
-    ``motion_beat_times`` (the jittered beats the motion follows), ``bpm``, ``beats_per_bar``,
-    ``split`` and ``index``.
+    ``style``, and ``meta`` holding (seconds) ``beat_times`` / ``downbeat_times`` (the music's beat
+    grid, continuing through breaks), ``onset_times`` (the beats that sound an attack),
+    ``break_times`` (``[start, end]`` of each break), ``motion_beat_times`` (the jittered beats on
+    which the dancer reaches a key pose), plus ``bpm``, ``beats_per_bar``, ``split`` and ``index``.
     """
     if index < 0:
         raise IndexError(f"clip index must be >= 0, got {index}")
@@ -178,23 +229,47 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
     first_index = int(rng.integers(style.beats_per_bar))
     grid = beat_grid(first_beat, period, duration, style.beats_per_bar, first_index)
 
-    # Motion beats: the music grid extended one beat before and two after, each jittered.
+    bpb = style.beats_per_bar
+    is_break, opens = plan_breaks(rng, grid["bar_starts"].size, cfg.break_prob, cfg.max_break_bars)
+
+    # Beats of the grid extended one before and two after (index k = -1 .. N + 1), each jittered.
     k = np.arange(-1, grid["beats"].size + 2)
+    bar = grid["beat_bar"][0] + (k + first_index) // bpb if grid["beats"].size else k * 0
+    in_range = (bar >= 0) & (bar < is_break.size)
+    bar_c = np.clip(bar, 0, is_break.size - 1)
+    in_break = in_range & is_break[bar_c]
+    hit = in_break & opens[bar_c] & ((k + first_index) % bpb == 0)
+    keyed = ~in_break | hit  # beats on which the dancer reaches a key pose
     jitter = np.clip(rng.normal(0.0, cfg.phase_jitter, k.size), -0.3 * period, 0.3 * period)
     motion_beats = first_beat + k * period + jitter
     poses, root = choose_keys(
-        style, k.size, rng, amplitude_range=cfg.amplitude_range, radius=cfg.trajectory_radius
+        style, int(keyed.sum()), rng, amplitude_range=cfg.amplitude_range, radius=cfg.trajectory_radius
     )
     times = np.arange(num_frames) / fps
     phase = beat_phase(times, motion_beats)
-    controls = ease_keys(np.concatenate([poses, root], axis=1), phase)
+    key_phases = (k + 1)[keyed].astype(np.float64)
+    controls = ease_keys(
+        np.concatenate([poses, root], axis=1), phase, key_phases, attack=cfg.attack, release=cfg.release
+    )
     controls[:, : poses.shape[1]] += smooth_noise(
         rng, (num_frames, poses.shape[1]), cfg.motion_noise, cfg.noise_smoothing * fps
     )
     segs = segment_rotations(controls[:, : poses.shape[1]], controls[:, poses.shape[1]])
     positions = pose(skeleton, segs, controls[:, poses.shape[1] + 1 :])
 
-    audio = render_music(style, grid, first_index, num_samples, cfg.sample_rate, rng, noise=cfg.audio_noise)
+    grid_beats = slice(1, 1 + grid["beats"].size)  # extended index -> grid beats
+    audio = render_music(
+        style,
+        grid,
+        first_index,
+        num_samples,
+        cfg.sample_rate,
+        rng,
+        sounded=~in_break[grid_beats],
+        hits=hit[grid_beats],
+        held_bars=is_break & ~opens,
+        noise=cfg.audio_noise,
+    )
 
     trajectory = None
     if skeleton.dims == 2:
@@ -205,7 +280,16 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
         motion = positions - positions[:, skeleton.root : skeleton.root + 1]
     else:
         motion = positions
-    inside = (motion_beats >= 0) & (motion_beats < duration)
+    inside = keyed & (motion_beats >= 0) & (motion_beats < duration)
+    sounding = (~in_break | hit)[grid_beats]
+    bar_len = bpb * period
+    breaks = [
+        [
+            float(grid["bar_starts"][b]),
+            float(grid["bar_starts"][b] + bar_len * _span(is_break, opens, int(b))),
+        ]
+        for b in np.flatnonzero(opens)
+    ]
     meta: dict[str, Any] = {
         "index": index,
         "split": split_of(index, len(cfg.styles)),
@@ -213,6 +297,8 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
         "beats_per_bar": style.beats_per_bar,
         "beat_times": [float(x) for x in grid["beats"]],
         "downbeat_times": [float(x) for x in grid["downbeats"]],
+        "onset_times": [float(x) for x in grid["beats"][sounding]],
+        "break_times": breaks,
         "motion_beat_times": [float(x) for x in motion_beats[inside]],
         "source": "synth_dance",
     }

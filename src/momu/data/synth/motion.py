@@ -6,8 +6,11 @@ Pipeline for one clip (all vectorised over frames):
    (random amplitude per move, random left/right mirroring), plus the root's yaw and floor
    position accumulated from each key's ``turn`` / ``step`` increments.
 2. :func:`beat_phase` + :func:`ease_keys`: every control moves from one key to the next over one
-   (jittered) beat with a raised-cosine ease, so velocity is zero and direction changes exactly at
-   the motion beats (MoMu §3.2 kinematic beats; HarmoGAN Eq. 3 velocity extrema).
+   (jittered) beat, starting sharply on the beat and decelerating into the next key, so velocity is
+   zero and direction changes exactly at the motion beats (MoMu §3.2 kinematic beats; HarmoGAN
+   Eq. 3 velocity extrema). Through a musical break the dancer hits a pose on the break's first
+   downbeat and flows slowly, in one eased move, to the pose of the next section: no kinematic beat
+   where the music has no attack.
 3. :func:`segment_rotations`: controls -> one global rotation per body segment.
 4. :func:`pose`: per-bone rotations -> :func:`momu.features.skeletons.forward_kinematics` (bone
    lengths exactly constant), root lifted so the lowest foot joint touches the floor (y = 0).
@@ -21,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
+from scipy.special import betainc
 
 from momu.data.synth.styles import CONTROLS, INCREMENTS, NEUTRAL, Style
 from momu.features.skeletons import Skeleton, forward_kinematics
@@ -148,18 +152,36 @@ def beat_phase(times: np.ndarray, beat_times: np.ndarray) -> np.ndarray:
     return phase
 
 
-def ease_keys(keys: np.ndarray, phase: np.ndarray) -> np.ndarray:
-    """Raised-cosine interpolation of ``keys`` (``(K, C)``, key ``k`` at phase ``k``) at ``phase``.
+def ease_keys(
+    keys: np.ndarray,
+    phase: np.ndarray,
+    key_phases: np.ndarray | None = None,
+    *,
+    attack: float = 1.0,
+    release: float = 1.0,
+) -> np.ndarray:
+    """Eased interpolation of ``keys`` (``(K, C)``) placed at ``key_phases``, sampled at ``phase``.
 
-    Between keys ``k`` and ``k + 1`` the value is ``key_k + (key_{k+1} - key_k) (1 - cos(pi u)) / 2``
-    with ``u = phase - k``: the derivative vanishes at every integer phase. Phases outside
-    ``[0, K - 1]`` are clamped. Returns ``(T, C)``.
+    ``key_phases`` (``(K,)`` increasing, default ``0, 1, ..., K - 1``) are the phases (in beats) at
+    which each key pose is reached. Between keys ``k`` and ``k + 1`` the value is
+    ``key_k + (key_{k+1} - key_k) w(u)`` with ``u`` the fraction of the way from ``key_phases[k]`` to
+    ``key_phases[k + 1]`` and ``w`` the regularised incomplete beta function ``I_u(attack + 1,
+    release + 1)``: the speed profile is ``∝ u^attack (1 - u)^release``, zero at every key (a
+    velocity minimum and a change of direction on each key). ``attack = release = 1`` is smoothstep;
+    ``attack < 1`` makes every move start sharply on its key, like a dancer's hit on the beat.
+    Phases outside the keys' range are clamped. Returns ``(T, C)``.
     """
+    if attack <= 0 or release <= 0:
+        raise ValueError(f"attack and release must be > 0, got {attack} and {release}")
     keys = np.asarray(keys, dtype=np.float64)
-    p = np.clip(np.asarray(phase, dtype=np.float64), 0.0, keys.shape[0] - 1.0)
-    k = np.minimum(np.floor(p).astype(np.int64), keys.shape[0] - 2)
-    u = p - k
-    w = (0.5 - 0.5 * np.cos(np.pi * u))[:, None]
+    n = keys.shape[0]
+    kp = np.arange(n, dtype=np.float64) if key_phases is None else np.asarray(key_phases, dtype=np.float64)
+    if kp.shape != (n,) or n < 2 or np.any(np.diff(kp) <= 0):
+        raise ValueError("need at least two keys at strictly increasing key_phases")
+    p = np.clip(np.asarray(phase, dtype=np.float64), kp[0], kp[-1])
+    k = np.clip(np.searchsorted(kp, p, side="right") - 1, 0, n - 2)
+    u = np.clip((p - kp[k]) / (kp[k + 1] - kp[k]), 0.0, 1.0)
+    w = betainc(attack + 1.0, release + 1.0, u)[:, None]
     return keys[k] + (keys[k + 1] - keys[k]) * w
 
 
@@ -235,12 +257,20 @@ def _align_down(v: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * kx + (1 - c) * (kx @ kx)
 
 
-def pose(skeleton: Skeleton, segments: Mapping[str, np.ndarray], root_xz: np.ndarray) -> np.ndarray:
+def pose(
+    skeleton: Skeleton,
+    segments: Mapping[str, np.ndarray],
+    root_xz: np.ndarray,
+    *,
+    floor_softness: float = 0.01,
+) -> np.ndarray:
     """Joint positions ``(T, J, 3)`` in metres (Y up) of ``skeleton`` posed by segment rotations.
 
     Each limb bone's rest offset is first rotated to hang straight down (so T-pose and A-pose rest
     skeletons dance alike), then by its segment's rotation. The root is placed at ``root_xz``
-    (``(T, 2)``, floor coordinates) and lifted so the lowest shin/foot joint is on the floor.
+    (``(T, 2)``, floor coordinates) and lifted so the lowest shin/foot joint is on the floor. With
+    ``floor_softness`` > 0 (metres) the lift uses a soft minimum over the foot joints, so the body
+    does not jerk when the support foot changes (feet then hover at most ``softness * log(n)``).
     """
     t = root_xz.shape[0]
     rots = np.empty((t, skeleton.num_joints, 3, 3))
@@ -256,7 +286,13 @@ def pose(skeleton: Skeleton, segments: Mapping[str, np.ndarray], root_xz: np.nda
     root[:, 0], root[:, 2] = root_xz[:, 0], root_xz[:, 1]
     pos = forward_kinematics(skeleton, rots, root)
     feet = [j for j, s in enumerate(skeleton.segments) if s in _FOOT_SEGMENTS]
-    pos[..., 1] -= pos[:, feet, 1].min(axis=1, keepdims=True)
+    heights = pos[:, feet, 1]
+    lowest = heights.min(axis=1, keepdims=True)
+    if floor_softness > 0:  # smooth weight transfer: a soft minimum, <= the lowest foot
+        lowest = lowest - floor_softness * np.log(
+            np.exp(-(heights - lowest) / floor_softness).sum(axis=1, keepdims=True)
+        )
+    pos[..., 1] -= lowest
     return pos
 
 

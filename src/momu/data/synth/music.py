@@ -4,6 +4,9 @@ Every percussive or tonal attack sits exactly on a beat of the grid (kick- and s
 transients following the style's per-bar pattern, tonal plucks for styles without drums), the
 harmonic layer changes chord at every downbeat, and light white noise is added. Nothing sounds
 between beats, so onset detection (librosa, MoMu §B.2 / HarmoGAN §III-B) recovers the grid.
+*Breaks* (one or more bars of which only the first downbeat sounds, then the held chord) leave seconds
+without onsets, as real music has; without them every one-second bin of the LORIS/MoMu beat
+scores (BCS/BHS) would hold an onset and those scores could not tell pairs apart.
 """
 
 from __future__ import annotations
@@ -36,8 +39,9 @@ def beat_grid(
 
     ``first_beat`` is the first beat at or after 0 s (seconds), ``period`` the beat period
     (seconds), ``first_index`` the position of that first beat in its bar (0 = downbeat).
-    Returns ``{"beats": (N,), "downbeats": (M,), "bar_starts": (M',)}`` in seconds, where
-    ``bar_starts`` also includes the (possibly negative) start of the bar containing 0 s.
+    Returns ``{"beats": (N,), "downbeats": (M,), "bar_starts": (B,)}`` in seconds, where
+    ``bar_starts`` also includes the (possibly negative) start of the bar containing 0 s, and
+    ``"beat_bar"``: ``(N,)`` the index into ``bar_starts`` of each beat's bar.
     """
     n = int(np.floor((duration - first_beat) / period)) + 1 if first_beat < duration else 0
     k = np.arange(n)
@@ -48,7 +52,9 @@ def beat_grid(
         bar0 -= beats_per_bar * period
     num_bars = int(np.ceil((duration - bar0) / (beats_per_bar * period)))
     bars = bar0 + np.arange(num_bars) * beats_per_bar * period
-    return {"beats": beats, "downbeats": down, "bar_starts": bars}
+    first_bar = 1 if first_beat - first_index * period > 0 else 0
+    beat_bar = first_bar + (k + first_index) // beats_per_bar
+    return {"beats": beats, "downbeats": down, "bar_starts": bars, "beat_bar": beat_bar}
 
 
 def _kick(sr: int, rng: np.random.Generator) -> np.ndarray:
@@ -98,12 +104,15 @@ def _add(out: np.ndarray, sound: np.ndarray, start: int, gain: float) -> None:
 
 def render_music(
     style: Style,
-    grid: dict,
+    grid: dict[str, np.ndarray],
     first_index: int,
     num_samples: int,
     sample_rate: int,
     rng: np.random.Generator,
     *,
+    sounded: np.ndarray | None = None,
+    hits: np.ndarray | None = None,
+    held_bars: np.ndarray | None = None,
     noise: float = 0.005,
 ) -> np.ndarray:
     """Render ``num_samples`` of mono audio in [-1, 1] (float32) for a :func:`beat_grid`.
@@ -113,51 +122,66 @@ def render_music(
         grid: the output of :func:`beat_grid`; ``first_index`` is the bar position of its first beat.
         num_samples: output length in samples at ``sample_rate`` Hz.
         rng: the clip's generator (key, chords and noise are drawn from it).
+        sounded: ``(N,)`` bool, beats that play the style's pattern (default: all).
+        hits: ``(N,)`` bool, beats that sound although not ``sounded``: the downbeat that opens a
+            break (played like any downbeat, then silence but for the held chord).
+        held_bars: ``(B,)`` bool, bars that sustain the previous bar's chord without a new attack.
         noise: standard deviation of the added white noise, relative to a peak of 1.
     """
     sr = sample_rate
     bpb = style.beats_per_bar
+    beats, bars = grid["beats"], grid["bar_starts"]
+    sounded = np.ones(beats.size, bool) if sounded is None else np.asarray(sounded, bool)
+    hits = np.zeros(beats.size, bool) if hits is None else np.asarray(hits, bool)
+    held = np.zeros(bars.size, bool) if held_bars is None else np.asarray(held_bars, bool)
     key = int(rng.integers(0, 12))
     prog = PROGRESSIONS[int(rng.integers(len(PROGRESSIONS)))]
     kick, snare = _kick(sr, rng), _snare(sr, rng)
     pluck_table = _wavetable(0.6, 5)
     drums = np.zeros(num_samples)
     tonal = np.zeros(num_samples)
-    bars = grid["bar_starts"]
-    bar_len = bpb * (grid["beats"][1] - grid["beats"][0]) if grid["beats"].size > 1 else 1.0
+    bar_len = bpb * (beats[1] - beats[0]) if beats.size > 1 else 1.0
 
-    def chord_of(time: float) -> tuple[int, bool]:
-        bar = int(np.searchsorted(bars, time + 1e-9) - 1)
-        return prog[bar % len(prog)]
+    # The chord of every bar: the progression, except held bars keep the previous bar's chord.
+    chords: list[tuple[int, bool]] = []
+    for b in range(bars.size):
+        chords.append(chords[-1] if held[b] and chords else prog[b % len(prog)])
 
-    for i, b in enumerate(grid["beats"]):
+    for i, t in enumerate(beats):
         pos = (i + first_index) % bpb
-        start = int(round(b * sr))
+        start = int(round(t * sr))
+        degree, minor = chords[int(grid["beat_bar"][i])]
+        if not (sounded[i] or hits[i]):
+            continue
         _add(drums, kick, start, style.kick[pos])
         _add(drums, snare, start, 0.8 * style.snare[pos])
         if style.pluck[pos] > 0:
-            degree, minor = chord_of(b)
             tone = (0, 3 if minor else 4, 7)[i % 3]
             note = style.octave + 12 + key + degree + tone
             _add(tonal, _pluck(float(midi_to_hz(note)), sr, pluck_table), start, style.pluck[pos])
 
-    # Harmonic pad: one chord per bar (root, third, fifth + bass), attack on the downbeat.
+    # Harmonic pad: root, third, fifth + bass; a new attack on every downbeat except held bars.
     pad = np.zeros(num_samples)
     table = _wavetable(style.brightness, 4)
-    for bar_index, start_t in enumerate(bars):
-        s0, s1 = max(0, int(round(start_t * sr))), min(num_samples, int(round((start_t + bar_len) * sr)))
-        if s1 <= s0:
-            continue
-        degree, minor = prog[bar_index % len(prog)]
-        notes = style.octave + key + degree + np.array([0, 3 if minor else 4, 7])
-        t_abs = np.arange(s0, s1) / sr
-        t_loc = t_abs - start_t
-        wave = 1.5 * _oscillator(table, float(midi_to_hz(notes[0])), t_abs)  # bass
-        for note in notes:
-            wave += _oscillator(table, float(midi_to_hz(note + 12)), t_abs)
-        env = np.minimum(t_loc / 0.03, 1.0) * (0.45 + 0.55 * np.exp(-t_loc / 0.6))
-        env *= np.clip((bar_len - t_loc) / 0.02, 0.0, 1.0)
-        pad[s0:s1] += wave * env
+    b = 0
+    while b < bars.size:
+        span = 1
+        while b + span < bars.size and held[b + span]:
+            span += 1
+        start_t, length = bars[b], span * bar_len
+        s0, s1 = max(0, int(round(start_t * sr))), min(num_samples, int(round((start_t + length) * sr)))
+        if s1 > s0:
+            degree, minor = chords[b]
+            notes = style.octave + key + degree + np.array([0, 3 if minor else 4, 7])
+            t_abs = np.arange(s0, s1) / sr
+            t_loc = t_abs - start_t
+            wave = 1.5 * _oscillator(table, float(midi_to_hz(notes[0])), t_abs)  # bass
+            for note in notes:
+                wave += _oscillator(table, float(midi_to_hz(note + 12)), t_abs)
+            env = np.minimum(t_loc / 0.03, 1.0) * (0.45 + 0.55 * np.exp(-t_loc / 0.6))
+            env *= np.clip((length - t_loc) / 0.02, 0.0, 1.0)
+            pad[s0:s1] += wave * env
+        b += span
 
     mix = drums + 0.5 * tonal + 0.08 * pad
     peak = float(np.max(np.abs(mix))) if mix.size else 0.0

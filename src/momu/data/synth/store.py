@@ -9,7 +9,8 @@ Layout of a written dataset (``write_dataset(out_dir, cfg)``)::
 
 Each manifest clip entry holds ``id``, ``index``, ``style``, ``split``, the relative ``audio`` /
 ``motion`` (/ ``trajectory``) paths, ``num_frames``, ``num_samples``, ``duration`` (s), ``bpm``,
-``beats_per_bar``, ``beat_times``, ``downbeat_times`` and ``motion_beat_times`` (s). Every file is
+``beats_per_bar``, ``beat_times``, ``downbeat_times``, ``onset_times``, ``break_times`` and
+``motion_beat_times`` (s). Every file is
 written atomically and the manifest last, so an interrupted write never leaves a manifest that
 points at missing or partial files. The same configuration always gives byte-identical files.
 """
@@ -38,7 +39,15 @@ log = logging.getLogger(__name__)
 MANIFEST = "manifest.json"
 FORMAT = "momu.synth_dance"
 VERSION = 1
-_META_KEYS = ("bpm", "beats_per_bar", "beat_times", "downbeat_times", "motion_beat_times")
+_META_KEYS = (
+    "bpm",
+    "beats_per_bar",
+    "beat_times",
+    "downbeat_times",
+    "onset_times",
+    "break_times",
+    "motion_beat_times",
+)
 
 
 def _npy_bytes(array: np.ndarray) -> bytes:
