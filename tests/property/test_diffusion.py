@@ -34,10 +34,11 @@ def scheduler(name: str) -> NoiseScheduler:
 
 
 @functools.cache
-def dit(in_ch: int = 3, cond_ch: int = 2, seed: int = 0, positions: str = "concat") -> Any:
+def dit(in_ch: int = 3, cond_ch: int = 2, seed: int = 0, positions: str = "concat", add: bool = False) -> Any:
     torch.manual_seed(seed)
     params = dict(in_channels=in_ch, cond_channels=cond_ch, cond_embed_dim=8, hidden=16, heads=2, depth=2)
-    return BACKBONES.build("dit", {**params, "max_length": 96, "positions": positions}).eval()
+    extra = {"positions": positions, "cond_add": add, "time_to_all_tokens": add}
+    return BACKBONES.build("dit", {**params, "max_length": 96, **extra}).eval()
 
 
 @functools.cache
@@ -142,7 +143,7 @@ def test_inpainting_leaves_known_frames_exactly(seed: int, length: int, data: An
     cond_extra=st.integers(0, 6),
     pad_value=st.floats(-1e3, 1e3, allow_nan=False),
     t=timesteps,
-    backbone=st.sampled_from(["dit", "dit_aligned", "unet1d"]),
+    backbone=st.sampled_from(["dit", "dit_aligned", "dit_add", "unet1d"]),
 )
 @settings(deadline=None)
 def test_padding_never_changes_the_valid_output(
@@ -156,7 +157,12 @@ def test_padding_never_changes_the_valid_output(
     backbone: str,
 ) -> None:
     """MoMu §4 pad-and-truncate: valid outputs do not depend on the pad length or the pad content."""
-    model = {"dit": dit, "dit_aligned": lambda: dit(positions="aligned"), "unet1d": unet}[backbone]()
+    model = {
+        "dit": dit,
+        "dit_aligned": lambda: dit(positions="aligned"),
+        "dit_add": lambda: dit(add=True),
+        "unet1d": unet,
+    }[backbone]()
     x, cond = randn(seed, 1, length, 3), randn(seed + 1, 1, cond_length, 2)
     tt = torch.tensor([t])
     ref = model(x, tt, cond)

@@ -44,7 +44,16 @@ def tiny_dit_aligned(**kw: object) -> DiT:
     return tiny_dit(positions="aligned", **kw)
 
 
-BUILDERS = {"dit": tiny_dit, "dit_aligned": tiny_dit_aligned, "unet1d": tiny_unet}
+def tiny_dit_shortcuts(**kw: object) -> DiT:
+    return tiny_dit(cond_add=True, time_to_all_tokens=True, **kw)
+
+
+BUILDERS = {
+    "dit": tiny_dit,
+    "dit_aligned": tiny_dit_aligned,
+    "dit_shortcuts": tiny_dit_shortcuts,
+    "unet1d": tiny_unet,
+}
 ALL = list(BUILDERS)
 
 

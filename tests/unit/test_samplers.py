@@ -70,6 +70,7 @@ def test_sampling_runs_do_not_share_state() -> None:
     [
         ({"num_inference_steps": 0}, "num_inference_steps"),
         ({"beta_start": 0.1, "beta_end": 0.01}, "beta_start"),
+        ({"clip_sample_range": 0.0}, "clip_sample_range"),
     ],
 )
 def test_scheduler_config_errors(params: dict[str, Any], match: str) -> None:

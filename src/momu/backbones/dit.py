@@ -68,6 +68,10 @@ class DiTConfig:
             space have the same frame rate) and the timestep token sits at 0, which makes the
             frame-to-frame correspondence directly visible to attention. Requires
             ``segment_embeddings``. ``max_length`` then bounds each of L_x and L_c.
+        time_to_all_tokens: also add the timestep embedding to every token (not in the paper).
+        cond_add: also add the embedded condition frame ⌊p·L_c/L_x⌋ to latent frame p, on top
+            of the condition tokens (not in the paper; the frame-aligned shortcut that lets a
+            small model use a time-aligned condition from the first steps of training).
         segment_embeddings: add a learned type embedding (latent / condition / timestep) to
             each token, so the model need not infer the segment from content (not in the paper).
         dropout: dropout in attention and feed-forward layers.
@@ -84,6 +88,8 @@ class DiTConfig:
     max_length: int = 1024
     pad_to_max: bool = False
     positions: str = "concat"
+    time_to_all_tokens: bool = False
+    cond_add: bool = False
     time_freq_dim: int = 256
     segment_embeddings: bool = True
     dropout: float = 0.0
@@ -204,12 +210,17 @@ class DiT(nn.Module):
         c_tok, c_mask = self._cond_tokens(b, cond, cond_mask, drop_cond, hx)
         t_tok = self.time_embed(t)[:, None, :].to(hx.dtype)  # (B, 1, H)
 
-        parts, masks = [hx], [x_mask]
         len_c = torch.zeros_like(len_x)
+        if c_tok is not None and c_mask is not None:
+            len_c = c_mask.sum(dim=1)
+            if self.cfg.cond_add:  # latent frame p also gets condition frame ⌊p·L_c/L_x⌋ added
+                src = (torch.arange(length, device=dev)[None, :] * len_c[:, None]) // len_x[:, None]
+                src = src.clamp_max(c_tok.shape[1] - 1)
+                hx = hx + torch.gather(c_tok, 1, src[..., None].expand(-1, -1, c_tok.shape[-1])) * keep
+        parts, masks = [hx], [x_mask]
         if c_tok is not None and c_mask is not None:
             parts.append(c_tok)
             masks.append(c_mask)
-            len_c = c_mask.sum(dim=1)
         parts.append(t_tok)
         masks.append(torch.ones(b, 1, dtype=torch.bool, device=dev))
         tokens = torch.cat(parts, dim=1)  # (B, T + Lc + 1, H)
@@ -239,6 +250,8 @@ class DiT(nn.Module):
             pos.append(total[:, None] - 1)
         pos_ids = torch.cat(pos, dim=1).clamp_max(self.cfg.max_length - 1)
         tokens = tokens + self.pos_embed[pos_ids].to(tokens.dtype)
+        if self.cfg.time_to_all_tokens:  # additive time conditioning on every token (not in the paper)
+            tokens = tokens + t_tok
         if self.segment_embed is not None:
             seg = [torch.zeros(length, dtype=torch.long, device=dev)]
             if c_tok is not None:

@@ -52,7 +52,9 @@ class DDPMConfig:
         num_inference_steps: reverse steps used for sampling (DDPM: all T).
         variance_type: posterior variance (``fixed_small`` = σ_t² of MoMu Eq. 9).
         timestep_spacing: how inference timesteps are spread (diffusers' option).
-        clip_sample: clip ẑ_0 to [-1, 1] in each step (off: latents are unbounded).
+        clip_sample: clip ẑ_0 to ±``clip_sample_range`` in each step (off: latents are unbounded;
+            on, it keeps an imperfect ε-model from drifting at high noise levels).
+        clip_sample_range: the clipping bound.
     """
 
     num_train_timesteps: int = 1000
@@ -63,6 +65,7 @@ class DDPMConfig:
     variance_type: str = "fixed_small"
     timestep_spacing: str = "leading"
     clip_sample: bool = False
+    clip_sample_range: float = 1.0
 
 
 @dataclass
@@ -75,7 +78,8 @@ class DDIMConfig:
         eta: DDIM stochasticity η (0 = deterministic DDIM, 1 = DDPM-like variance).
         timestep_spacing: how inference timesteps are spread (diffusers' option).
         set_alpha_to_one: use ᾱ_prev = 1 at the final step (diffusers' default).
-        clip_sample: clip ẑ_0 to [-1, 1] in each step (off: latents are unbounded).
+        clip_sample: clip ẑ_0 to ±``clip_sample_range`` in each step (see :class:`DDPMConfig`).
+        clip_sample_range: the clipping bound.
     """
 
     num_train_timesteps: int = 1000
@@ -87,6 +91,7 @@ class DDIMConfig:
     timestep_spacing: str = "leading"
     set_alpha_to_one: bool = True
     clip_sample: bool = False
+    clip_sample_range: float = 1.0
 
 
 def _check_common(kind: str, cfg: DDPMConfig | DDIMConfig) -> None:
@@ -101,6 +106,8 @@ def _check_common(kind: str, cfg: DDPMConfig | DDIMConfig) -> None:
         raise ValueError(f"{kind}: need 0 < beta_start < beta_end < 1, got {cfg.beta_start}, {cfg.beta_end}")
     if cfg.beta_schedule not in _BETA_SCHEDULES:
         raise ValueError(f"{kind}.beta_schedule {cfg.beta_schedule!r} not one of {_BETA_SCHEDULES}")
+    if cfg.clip_sample_range <= 0:
+        raise ValueError(f"{kind}.clip_sample_range must be positive, got {cfg.clip_sample_range}")
     if cfg.timestep_spacing not in _SPACINGS:
         raise ValueError(f"{kind}.timestep_spacing {cfg.timestep_spacing!r} not one of {_SPACINGS}")
 
@@ -209,6 +216,7 @@ def build_ddpm(cfg: DDPMConfig, **deps: object) -> NoiseScheduler:
         beta_schedule=cfg.beta_schedule,
         variance_type=cfg.variance_type,
         clip_sample=cfg.clip_sample,
+        clip_sample_range=cfg.clip_sample_range,
         prediction_type="epsilon",
         timestep_spacing=cfg.timestep_spacing,
     )
@@ -227,6 +235,7 @@ def build_ddim(cfg: DDIMConfig, **deps: object) -> NoiseScheduler:
         beta_end=cfg.beta_end,
         beta_schedule=cfg.beta_schedule,
         clip_sample=cfg.clip_sample,
+        clip_sample_range=cfg.clip_sample_range,
         set_alpha_to_one=cfg.set_alpha_to_one,
         prediction_type="epsilon",
         timestep_spacing=cfg.timestep_spacing,
