@@ -115,9 +115,7 @@ def _check_common(kind: str, cfg: DDPMConfig | DDIMConfig) -> None:
 class SamplingRun:
     """One reverse-process run: ``timesteps`` (descending) and ``step``. Owns its scheduler copy."""
 
-    def __init__(
-        self, scheduler: Any, num_inference_steps: int, step_kwargs: dict[str, Any]
-    ) -> None:
+    def __init__(self, scheduler: Any, num_inference_steps: int, step_kwargs: dict[str, Any]) -> None:
         self.scheduler = scheduler
         self.scheduler.set_timesteps(num_inference_steps)
         self.timesteps: Tensor = self.scheduler.timesteps.clone()
