@@ -304,21 +304,21 @@ def test_mp4_without_imageio_ffmpeg_says_what_to_install(tmp_path: Path) -> None
     assert list(tmp_path.iterdir()) == []
 
 
-def test_mp4_has_video_and_audio_streams(tmp_path: Path) -> None:
+@pytest.mark.parametrize("audio_seconds", [1.0, 0.2])
+def test_mp4_has_video_and_audio_streams(tmp_path: Path, audio_seconds: float) -> None:
     imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
     path = tmp_path / "a.mp4"
     motion = _jerky_motion(10, [3])
-    # odd pixel sizes (99 x 128): the h264 writer rounds them to even sizes
-    skeleton_animation(
-        path, motion, 20.0, "smpl24", audio=_clicks([0.1], 1.0), sample_rate=SR, figsize=(1.0, 1.0), dpi=99
-    )
+    audio = _clicks([0.1], audio_seconds)
+    # odd pixel sizes (99 x 128) are padded to even ones for yuv420p
+    skeleton_animation(path, motion, 20.0, "smpl24", audio=audio, sample_rate=SR, figsize=(1.0, 1.0), dpi=99)
     probe = subprocess.run(
         [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(path)], capture_output=True, text=True
     )
     streams = [line for line in probe.stderr.splitlines() if "Stream #" in line]
     assert any("Video: h264" in s and "20 fps" in s for s in streams)
     assert any("Audio: aac" in s for s in streams)
-    assert "Duration: 00:00:00.50" in probe.stderr  # cut to the 0.5 s motion (-shortest)
+    assert "Duration: 00:00:00.50" in probe.stderr  # sound cut or padded to the 0.5 s motion
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mp4"]
 
 
