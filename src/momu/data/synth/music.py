@@ -90,8 +90,8 @@ def _wavetable(brightness: float, num_harmonics: int) -> np.ndarray:
 
 
 def _oscillator(table: np.ndarray, freq: float, times: np.ndarray) -> np.ndarray:
-    """Wavetable oscillator: ``table`` read at ``freq`` Hz at absolute ``times`` (seconds)."""
-    idx = (np.mod(freq * times, 1.0) * _TABLE_SIZE).astype(np.int64) % _TABLE_SIZE
+    """Wavetable oscillator: ``table`` read at ``freq`` Hz at absolute ``times`` (seconds, >= 0)."""
+    idx = (times * (freq * _TABLE_SIZE)).astype(np.int64) & (_TABLE_SIZE - 1)  # table size: a power of 2
     return table[idx]
 
 
