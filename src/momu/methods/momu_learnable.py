@@ -160,7 +160,7 @@ class LearnableMotionToMusic:
 
     @torch.no_grad()
     def condition(self, motion: np.ndarray, fps: float) -> torch.Tensor:
-        """Condition ``(n_z, d)`` of a motion ``(T, J, D)`` at ``fps`` (``n_z``: latent frames of its length)."""
+        """Condition ``(n_z, d)`` of a motion ``(T, J, D)`` at ``fps`` (n_z latent frames of its length)."""
         m = np.asarray(motion, dtype=np.float32)
         if m.ndim != 3:
             raise ValueError(f"motion must be (T, J, D), got shape {m.shape}")
