@@ -228,6 +228,19 @@ def test_beat_figure_rejects_bad_input(
     assert list(tmp_path.iterdir()) == []  # nothing written
 
 
+@pytest.mark.parametrize(("suffix", "magic"), [(".pdf", b"%PDF"), (".svg", b"<?xml")])
+def test_beat_figure_vector_formats(tmp_path: Path, suffix: str, magic: bytes) -> None:
+    import torch
+
+    path = tmp_path / f"beats{suffix}"
+    beat_matching_figure(
+        path, audio=torch.from_numpy(_clicks([0.5], 1.0)), sample_rate=SR,
+        motion=torch.from_numpy(_jerky_motion(30, [10])), fps=FPS, skeleton="smpl24", max_strip=1,
+        figsize=(3.0, 2.0), dpi=30,
+    )  # fmt: skip
+    assert path.read_bytes()[: len(magic)] == magic
+
+
 def test_beat_figure_rejects_unknown_suffix(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="unsupported figure format '.jpg'"):
         beat_matching_figure(
