@@ -1,4 +1,6 @@
-"""MoMu-Diffusion Table 7 (ablations): ``accelerate launch recipes/momu_table7.py [--preset smoke|cpu|paper] ...``.
+"""MoMu-Diffusion Table 7 (ablations).
+
+``accelerate launch recipes/momu_table7.py [--preset smoke|cpu|paper] ...``.
 
 Rows #1–#7 are overrides over ``recipes/configs/momu.yaml`` (see
 :func:`momu.methods.momu_recipes.table7_spec`); ``--help`` lists the options.

@@ -24,6 +24,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "momu.cli.data_cmd",
     "momu.cli.eval_cmd",
     "momu.cli.extractor_cmd",
+    "momu.cli.generate_cmd",
 )
 
 USAGE_ERRORS = (ConfigError, RegistryError, PluginError)

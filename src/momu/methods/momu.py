@@ -298,11 +298,20 @@ class MoMu:
             disc = build_component(c.discriminator_encoder, "encoders")
         gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
         stage1 = MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
-        ctx.stage("music_vae", keys["music_vae"], stage1, windows, stage_step, dataclasses.replace(c.train_music_vae, seed=seed))
+        ctx.stage(
+            "music_vae",
+            keys["music_vae"],
+            stage1,
+            windows,
+            stage_step,
+            dataclasses.replace(c.train_music_vae, seed=seed),
+        )
 
         # Stage 2: motion VAE + rhythmic contrastive loss, music VAE frozen, Eq. 11.
         vae.freeze_music(True)
-        contrastive = build_component(c.contrastive_loss, "losses") if c.contrastive_loss is not None else None
+        contrastive = (
+            build_component(c.contrastive_loss, "losses") if c.contrastive_loss is not None else None
+        )
         stage2 = MotionVAEStage(vae, build_component(c.vae_loss, "losses"), contrastive)
 
         def stage2_data() -> WindowDataset:
@@ -312,7 +321,14 @@ class MoMu:
                 fit_lengths(torch.stack([item["motion"] for item in data.items]))
             return data
 
-        ctx.stage("motion_vae", keys["motion_vae"], stage2, stage2_data, stage_step, dataclasses.replace(c.train_motion_vae, seed=seed))
+        ctx.stage(
+            "motion_vae",
+            keys["motion_vae"],
+            stage2,
+            stage2_data,
+            stage_step,
+            dataclasses.replace(c.train_motion_vae, seed=seed),
+        )
         vae = vae.to("cpu").eval()
 
         # Diffusion: θ_a and θ_m on the aligned latents, Eq. 6.
@@ -328,12 +344,21 @@ class MoMu:
             diffusion.set_statistics(z_music, z_motion)
             return LatentDataset(z_music, z_motion)
 
-        ctx.stage("diffusion", keys["diffusion"], diffusion, latent_data, stage_step, dataclasses.replace(c.train_diffusion, seed=seed))
+        ctx.stage(
+            "diffusion",
+            keys["diffusion"],
+            diffusion,
+            latent_data,
+            stage_step,
+            dataclasses.replace(c.train_diffusion, seed=seed),
+        )
         diffusion = diffusion.to("cpu").eval()
         skeleton = str(train_clips[0].skeleton or "")
         bones = get_skeleton(skeleton).bones if skeleton else ()
         lengths = (
-            np.asarray(mean_bone_lengths([np.asarray(cl.motion, dtype=np.float64) for cl in train_clips], bones))
+            np.asarray(
+                mean_bone_lengths([np.asarray(cl.motion, dtype=np.float64) for cl in train_clips], bones)
+            )
             if bones
             else np.zeros(0)
         )
@@ -343,8 +368,8 @@ class MoMu:
             music_backbone=diffusion.music_backbone,
             motion_backbone=diffusion.motion_backbone,
             norms=norms,
-            latent_music=Normalizer(diffusion.music_mean.numpy(), diffusion.music_std.numpy()),
-            latent_motion=Normalizer(diffusion.motion_mean.numpy(), diffusion.motion_std.numpy()),
+            latent_music=Normalizer(diffusion.statistic("music_mean"), diffusion.statistic("music_std")),
+            latent_motion=Normalizer(diffusion.statistic("motion_mean"), diffusion.statistic("motion_std")),
             rates=rates,
             skeleton=skeleton,
             bone_lengths=lengths,
@@ -366,7 +391,9 @@ class LatentDataset(torch.utils.data.Dataset[dict[str, torch.Tensor]]):
 
 
 @torch.no_grad()
-def encode_windows(vae: BiCoRVAE, data: WindowDataset, batch_size: int = 32) -> tuple[torch.Tensor, torch.Tensor]:
+def encode_windows(
+    vae: BiCoRVAE, data: WindowDataset, batch_size: int = 32
+) -> tuple[torch.Tensor, torch.Tensor]:
     """Posterior means of every window: ``(N, T_z, d)`` music and motion latents (aligned, §3.2)."""
     vae = vae.eval()
     key = "wave" if vae.music_input == "waveform" else "mel"
@@ -466,10 +493,13 @@ class MoMuModel:
     @torch.no_grad()
     def encode_music(self, audio: np.ndarray, sample_rate: int) -> torch.Tensor:
         """Standardised music latent ``(T_z, d)`` of a waveform (``T_z`` = whole latent frames it covers)."""
-        from momu.methods.momu_data import _waveform
         from momu.data.types import Clip
+        from momu.methods.momu_data import _waveform
 
-        wave = _waveform(Clip(id="input", motion=None, fps=1.0, audio=audio, sample_rate=sample_rate), self.rates.sample_rate)
+        wave = _waveform(
+            Clip(id="input", motion=None, fps=1.0, audio=audio, sample_rate=sample_rate),
+            self.rates.sample_rate,
+        )
         n = self.rates.latent_frames(len(wave) / self.rates.sample_rate)
         if self.rates.music_input == "waveform":
             need = n * self.rates.samples_per_latent
@@ -506,20 +536,32 @@ class MoMuModel:
 
     @torch.no_grad()
     def decode_motion(self, z: torch.Tensor) -> np.ndarray:
-        """Standardised latent ``(T_z, d)`` -> keypoints ``(T_z · frames_per_latent, J, D)`` at ``rates.motion_fps``."""
+        """Standardised latent ``(T_z, d)`` -> keypoints ``(T_z · frames_per_latent, J, D)``.
+
+        The frame rate is ``rates.motion_fps``.
+        """
         raw = self.latent_motion.inverse(z.float())[None]
         out = self.vae.decode_motion(raw)[0].cpu().numpy()
         motion = np.asarray(self.norms.motion.inverse(out), dtype=np.float32)
         if self.cfg.bone_correction and self.bone_lengths.size:
             motion = np.asarray(
-                correct_bone_lengths(motion, get_skeleton(self.skeleton).bones, self.bone_lengths, self.cfg.bone_ratio),
+                correct_bone_lengths(
+                    motion.astype(np.float64),
+                    get_skeleton(self.skeleton).bones,
+                    self.bone_lengths,
+                    self.cfg.bone_ratio,
+                ),
                 dtype=np.float32,
             )
         return motion
 
     # ---------------------------------------------------------------- generation
     def _cfg_sample(
-        self, backbone: nn.Module, conds: Sequence[torch.Tensor], seeds: Sequence[int], guidance_scale: float | None
+        self,
+        backbone: nn.Module,
+        conds: Sequence[torch.Tensor],
+        seeds: Sequence[int],
+        guidance_scale: float | None,
     ) -> list[torch.Tensor]:
         if len(conds) != len(seeds):
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
@@ -541,7 +583,10 @@ class MoMuModel:
     ) -> list[np.ndarray]:
         """Music→motion (θ_m, CFG Eq. 7): one ``(T, J, D)`` motion at ``rates.motion_fps`` per waveform."""
         conds = [self.encode_music(a, sample_rate) for a in audios]
-        return [self.decode_motion(z) for z in self._cfg_sample(self.motion_backbone, conds, seeds, guidance_scale)]
+        return [
+            self.decode_motion(z)
+            for z in self._cfg_sample(self.motion_backbone, conds, seeds, guidance_scale)
+        ]
 
     def motion_to_music(
         self,
@@ -551,10 +596,12 @@ class MoMuModel:
         *,
         guidance_scale: float | None = None,
     ) -> list[np.ndarray]:
-        """Motion→music (θ_a, CFG Eq. 7; mel decoded and vocoded): one waveform at ``rates.sample_rate`` each."""
+        """Motion→music (θ_a, CFG Eq. 7; mel decoded and vocoded): waveforms at ``rates.sample_rate``."""
         rates = [float(fps)] * len(motions) if isinstance(fps, (int, float)) else [float(f) for f in fps]
         conds = [self.encode_motion(m, f) for m, f in zip(motions, rates)]
-        return [self.decode_music(z) for z in self._cfg_sample(self.music_backbone, conds, seeds, guidance_scale)]
+        return [
+            self.decode_music(z) for z in self._cfg_sample(self.music_backbone, conds, seeds, guidance_scale)
+        ]
 
     @torch.no_grad()
     def joint(self, seconds: Sequence[float], seeds: Sequence[int]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -569,13 +616,20 @@ class MoMuModel:
         music_noise, mask = _pad([_item_noise(n, d, 2 * s) for n, s in zip(lengths, seeds)])
         motion_noise, _ = _pad([_item_noise(n, d, 2 * s + 1) for n, s in zip(lengths, seeds)])
         z_a, z_m = self.joint_sampler.sample(
-            self.music_backbone, self.motion_backbone, music_noise, motion_noise, music_mask=mask, motion_mask=mask
+            self.music_backbone,
+            self.motion_backbone,
+            music_noise,
+            motion_noise,
+            music_mask=mask,
+            motion_mask=mask,
         )
-        return [(self.decode_music(z_a[i, :n]), self.decode_motion(z_m[i, :n])) for i, n in enumerate(lengths)]
+        return [
+            (self.decode_music(z_a[i, :n]), self.decode_motion(z_m[i, :n])) for i, n in enumerate(lengths)
+        ]
 
     # ---------------------------------------------------------------- save / load
     def save(self, folder: str | Path) -> Path:
-        """Write ``momu.json``, one part folder per module (config.json + model.safetensors) and JSON statistics."""
+        """Write ``momu.json``, a part folder per module (config.json + model.safetensors), JSON stats."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         enc = dict(_plain(self.cfg.encoder))
@@ -628,7 +682,10 @@ class MoMuModel:
 
         nodes = tuple(
             {"name": rec["name"], **(rec["config"] or {})}
-            for rec in (read_part_config(folder / "music_backbone"), read_part_config(folder / "motion_backbone"))
+            for rec in (
+                read_part_config(folder / "music_backbone"),
+                read_part_config(folder / "motion_backbone"),
+            )
         )
         return cls(
             cfg=cfg,

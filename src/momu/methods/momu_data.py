@@ -139,7 +139,9 @@ class MoMuNormalizers:
         j, d = motions[0].shape[1:]
         for c, m in zip(clips, motions):
             if m.shape[1:] != (j, d):
-                raise ValueError(f"clip {c.id!r}: motion is {m.shape}, expected (T, {j}, {d}) like the others")
+                raise ValueError(
+                    f"clip {c.id!r}: motion is {m.shape}, expected (T, {j}, {d}) like the others"
+                )
         flat = np.concatenate([m.reshape(-1, d) for m in motions])
         centre = flat.mean(axis=0)
         scale = float(np.sqrt(((flat - centre) ** 2).sum(axis=1).mean() / d)) or 1.0
@@ -154,7 +156,10 @@ class MoMuNormalizers:
     @classmethod
     def load(cls, folder: str | Path) -> MoMuNormalizers:
         folder = Path(folder)
-        return cls(Normalizer.load(folder / "mel_normalizer.json"), Normalizer.load(folder / "motion_normalizer.json"))
+        return cls(
+            Normalizer.load(folder / "mel_normalizer.json"),
+            Normalizer.load(folder / "motion_normalizer.json"),
+        )
 
     def mel_of(self, audio: np.ndarray, sample_rate: int) -> np.ndarray:
         """Normalised MoMu mel ``(80, T)`` float32 of a waveform at ``sample_rate``."""
@@ -197,7 +202,9 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
         need_wave: bool = False,
     ) -> None:
         if window_seconds <= 0 or hop_seconds <= 0:
-            raise ValueError(f"window_seconds and window_hop_seconds must be > 0, got {window_seconds}, {hop_seconds}")
+            raise ValueError(
+                f"window_seconds and window_hop_seconds must be > 0, got {window_seconds}, {hop_seconds}"
+            )
         self.rates = rates
         self.latent_frames = rates.latent_frames(window_seconds)
         seconds = rates.seconds(self.latent_frames)
@@ -217,7 +224,11 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
             for start_s in starts:
                 first = int(round(start_s * rates.sample_rate / rates.hop_length))
                 item = {
-                    "motion": torch.from_numpy(_motion_window(motion, clip.fps, first * rates.hop_length / rates.sample_rate, seconds, n_motion).astype(np.float32))
+                    "motion": torch.from_numpy(
+                        _motion_window(
+                            motion, clip.fps, first * rates.hop_length / rates.sample_rate, seconds, n_motion
+                        ).astype(np.float32)
+                    )
                 }
                 if mel is not None:
                     piece = mel[:, first : first + n_mel]
@@ -248,7 +259,9 @@ def crop_clip(clip: Clip, seconds: float, *, start: float = 0.0, suffix: str = "
     if clip.motion is None or clip.audio is None or not clip.sample_rate:
         raise ValueError(f"clip {clip.id!r}: needs motion and audio")
     if start + seconds > clip.duration + 1e-6:
-        raise ValueError(f"clip {clip.id!r}: {clip.duration:.2f} s is shorter than the {start + seconds:.2f} s asked")
+        raise ValueError(
+            f"clip {clip.id!r}: {clip.duration:.2f} s is shorter than the {start + seconds:.2f} s asked"
+        )
     f0, f1 = int(round(start * clip.fps)), int(round((start + seconds) * clip.fps))
     s0, s1 = int(round(start * clip.sample_rate)), int(round((start + seconds) * clip.sample_rate))
     meta = dict(clip.meta)
@@ -267,9 +280,7 @@ def crop_clip(clip: Clip, seconds: float, *, start: float = 0.0, suffix: str = "
     )
 
 
-def eval_crops(
-    dataset: Sequence[Clip] | Any, split: str, count: int, seconds: Sequence[float]
-) -> list[Clip]:
+def eval_crops(dataset: Sequence[Clip] | Any, split: str, count: int, seconds: Sequence[float]) -> list[Clip]:
     """Ground-truth evaluation clips: the first ``count`` clips of ``split`` cut to ``seconds[i]``.
 
     ``seconds`` holds one length per clip (cycled when shorter than ``count``); clips shorter than

@@ -45,12 +45,12 @@ from momu.config import build_component, to_container
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.evaluate import map_gathered
+from momu.methods.momu import MoMu
+from momu.methods.momu_data import eval_crops, select_split
 from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
 from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.kinematic_beats import kinematic_beat_bins, kinematic_beat_frames
 from momu.metrics.loris_scores import aggregate_beat_scores, onset_beat_bins, onset_times, pair_beat_scores
-from momu.methods.momu import MoMu, MoMuModel
-from momu.methods.momu_data import eval_crops, select_split
 from momu.registry import METRICS
 
 __all__ = [
@@ -74,14 +74,16 @@ def derangement(n: int) -> list[int]:
 
 
 def eval_lengths(cfg: Any, seed: int) -> list[float]:
-    """Per-clip lengths in seconds: all ``seconds``, or uniform in ``[min_seconds, seconds]`` (variable length)."""
+    """Per-clip lengths (s): all ``seconds``, or uniform in ``[min_seconds, seconds]`` (variable length)."""
     if not cfg.variable_length:
         return [float(cfg.seconds)] * int(cfg.num_clips)
     rng = np.random.default_rng([int(seed), 7])
     return [float(x) for x in rng.uniform(cfg.min_seconds, cfg.seconds, int(cfg.num_clips))]
 
 
-def ensure_extractors(ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], cfg: Any, seed: int) -> tuple[Any, Any]:
+def ensure_extractors(
+    ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], cfg: Any, seed: int
+) -> tuple[Any, Any]:
     """The motion and audio feature extractors of FID/FAD, trained once per run on the train split.
 
     Cached under ``<out>/parts/extractor-<kind>-<hash>.safetensors``; the main process trains, the
@@ -136,7 +138,9 @@ def pair_f1(music: Sequence[Clip], motion: Sequence[Clip], *, music_is_reference
     return aggregate_beat_scores(covers, hits)
 
 
-def beat_onset_f1(reference: Sequence[float], estimate: Sequence[float], tolerance: float = 0.05) -> float:
+def beat_onset_f1(
+    reference: Sequence[float] | np.ndarray, estimate: Sequence[float] | np.ndarray, tolerance: float = 0.05
+) -> float:
     """F-measure of ``estimate`` beat times against ``reference`` times (s) within ``± tolerance`` s.
 
     Greedy one-to-one matching in time order (each reference beat matches at most one estimate, the
@@ -159,7 +163,7 @@ def beat_onset_f1(reference: Sequence[float], estimate: Sequence[float], toleran
 
 
 def onset_alignment(music: Sequence[Clip], motion: Sequence[Clip], tolerance: float = 0.05) -> float:
-    """Mean :func:`beat_onset_f1` (percent) of each motion's kinematic beats against the paired music's onsets.
+    """Mean :func:`beat_onset_f1` (percent) of each motion's kinematic beats vs the paired music's onsets.
 
     A finer diagnostic than the LORIS one-second bins (which saturate on dense beats): kinematic beats
     (:func:`momu.metrics.kinematic_beats.kinematic_beat_frames`, MoMu Eq. 2) within ``± tolerance`` s
@@ -175,8 +179,16 @@ def onset_alignment(music: Sequence[Clip], motion: Sequence[Clip], tolerance: fl
 
 
 def _beats(prefix: str, scores: Mapping[str, float]) -> dict[str, float]:
-    get = lambda k: float(scores.get(k, scores.get(f"beat_scores.{k}", scores.get(f"kinematic_beat_scores.{k}", 0.0))))  # noqa: E731
-    return {f"{prefix}_f1": 100.0 * get("f1"), f"{prefix}_bcs": 100.0 * get("bcs"), f"{prefix}_bhs": 100.0 * get("bhs")}
+    def get(k: str) -> float:
+        return float(
+            scores.get(k, scores.get(f"beat_scores.{k}", scores.get(f"kinematic_beat_scores.{k}", 0.0)))
+        )
+
+    return {
+        f"{prefix}_f1": 100.0 * get("f1"),
+        f"{prefix}_bcs": 100.0 * get("bcs"),
+        f"{prefix}_bhs": 100.0 * get("bhs"),
+    }
 
 
 def score_clips(
@@ -193,7 +205,9 @@ def score_clips(
     ref = list(fad_reference) if fad_reference is not None else list(truth)
     out = {
         "music_fad": float(METRICS.build("fad", {}, extractor=audio_ext)(gen_music, ref)["fad"]),
-        "motion_fid": float(METRICS.build("fid_learned", {}, extractor=motion_ext)(gen_motion, ref)["fid_learned"]),
+        "motion_fid": float(
+            METRICS.build("fid_learned", {}, extractor=motion_ext)(gen_motion, ref)["fid_learned"]
+        ),
     }
     if joint:
         out.update(_beats("music", pair_f1(gen_music, gen_motion, music_is_reference=False)))
@@ -206,8 +220,15 @@ def score_clips(
     return out
 
 
-def _clip(base: Clip, suffix: str, *, motion: np.ndarray | None = None, fps: float | None = None,
-          audio: np.ndarray | None = None, sample_rate: int | None = None) -> Clip:
+def _clip(
+    base: Clip,
+    suffix: str,
+    *,
+    motion: np.ndarray | None = None,
+    fps: float | None = None,
+    audio: np.ndarray | None = None,
+    sample_rate: int | None = None,
+) -> Clip:
     return dataclasses.replace(
         base,
         id=base.id + suffix,
@@ -249,7 +270,7 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, floa
         sr = int(items[0].sample_rate or rates.sample_rate)
         conds = [it.audio for it in items]
         if ev.shuffled_condition:
-            conds += [truth[perm[i]].audio[: len(truth[i].audio)] for i in indices]  # type: ignore[index]
+            conds += [np.asarray(truth[perm[i]].audio)[: len(np.asarray(truth[i].audio))] for i in indices]
         motions = model.music_to_motion(conds, sr, seeds + seeds[: len(conds) - len(seeds)])  # type: ignore[arg-type]
         music = model.motion_to_music([it.motion for it in items], [it.fps for it in items], seeds)  # type: ignore[misc]
         out = []
@@ -260,13 +281,22 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, floa
             out.append(rec)
         return out
 
-    results = map_gathered(ctx.accelerator, list(range(len(truth))), generate, batch_size=ev.batch_size, desc="momu generate")
-    gen_music = [_clip(t, "/gen", audio=r["audio"], sample_rate=rates.sample_rate) for t, r in zip(truth, results)]
+    results = map_gathered(
+        ctx.accelerator, list(range(len(truth))), generate, batch_size=ev.batch_size, desc="momu generate"
+    )
+    gen_music = [
+        _clip(t, "/gen", audio=r["audio"], sample_rate=rates.sample_rate) for t, r in zip(truth, results)
+    ]
     gen_motion = [_clip(t, "/gen", motion=r["motion"], fps=rates.motion_fps) for t, r in zip(truth, results)]
     metrics = score_clips(gen_music, gen_motion, truth, extractors, joint=joint)
     if not joint and ev.shuffled_condition:
-        shuffled = [_clip(t, "/shuf", motion=r["motion_shuffled"], fps=rates.motion_fps) for t, r in zip(truth, results)]
-        metrics["motion_f1_shuffled_cond"] = _beats("m", METRICS.build("kinematic_beat_scores", {})(shuffled, truth))["m_f1"]
+        shuffled = [
+            _clip(t, "/shuf", motion=r["motion_shuffled"], fps=rates.motion_fps)
+            for t, r in zip(truth, results)
+        ]
+        metrics["motion_f1_shuffled_cond"] = _beats(
+            "m", METRICS.build("kinematic_beat_scores", {})(shuffled, truth)
+        )["m_f1"]
         metrics["motion_onset_f1_shuffled_cond"] = onset_alignment(truth, shuffled)
     _maybe_plot(ctx, folder, truth[0], gen_music[0], gen_motion[0], joint)
     return metrics
@@ -283,7 +313,10 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig) -> dict[str, dict[str, floa
     others = eval_crops(dataset, ev.reference_split, len(truth), [float(ev.seconds)])
     extractors = ensure_extractors(ctx, dataset, data_key, ev, seed)
     perm = derangement(len(truth))
-    shuffled = [_clip(truth[i], "/shuf", motion=truth[perm[i]].motion, audio=truth[perm[i]].audio) for i in range(len(truth))]
+    shuffled = [
+        _clip(truth[i], "/shuf", motion=truth[perm[i]].motion, audio=truth[perm[i]].audio)
+        for i in range(len(truth))
+    ]
     gt = score_clips(others, others, truth, extractors, joint=False)
     gt.update({k: v for k, v in _beats("music", METRICS.build("beat_scores", {})(truth, truth)).items()})
     gt.update(_beats("motion", METRICS.build("kinematic_beat_scores", {})(truth, truth)))
@@ -296,7 +329,7 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig) -> dict[str, dict[str, floa
 
 
 def _maybe_plot(ctx: RunContext, folder: Path, truth: Clip, music: Clip, motion: Clip, joint: bool) -> None:
-    """A Figure 4/5-style beat plot of the first generated sample (main process; skipped without matplotlib)."""
+    """A Figure 4/5-style beat plot of the first generated sample (main process only)."""
     if not ctx.accelerator.is_main_process:
         return
     try:

@@ -11,15 +11,16 @@ generation on them with a learnable motion encoder, whose architecture is derive
 2. **Learnable motion→music diffusion** (:class:`LearnableMotionStage`): θ_a (the
    ``music_backbone``) on the standardised music latents ``z_a`` (Eq. 6), conditioned on
    ``learnable_motion(m)`` — the registered DSTformer encoder — trained end to end with the
-   ε-prediction loss and condition dropout (Eq. 7's null embedding). The encoder's temporal
-   pooling factor is the motion VAE's frames per latent, so its output has one condition frame per
-   latent frame (the aligned lengths of §3.2); its width is the latent width ``d``.
+   ε-prediction loss and condition dropout (Eq. 7's null embedding). The motion is aligned to
+   ``k`` frames per latent frame (§3.2's even frame dropping; ``frames_per_latent``, default 1)
+   and the encoder pools ``k`` frames into one, so its output has one condition frame per latent
+   frame; its width is the latent width ``d``.
 
 Generation (:class:`LearnableMotionToMusic`) samples with the method's ``sampler`` (CFG, Eq. 7),
 decodes the mel with the stage-1 VAE and vocodes it with the method's ``vocoder``.
 
 Shapes: motion ``(T, J, D)`` at the clip's fps → aligned to ``n_z · k`` frames
-(``n_z`` latent frames of the clip's duration, ``k`` = ``rates.motion_frames_per_latent``) →
+(``n_z`` latent frames of the clip's duration, ``k`` = ``frames_per_latent``) →
 condition ``(n_z, d)``; music latent ``(n_z, d)`` at ``rates.latent_rate`` (31.25 Hz at MoMu's
 settings) → waveform at ``rates.sample_rate`` (16 kHz).
 """
@@ -152,6 +153,7 @@ class LearnableMotionToMusic:
     rates: Rates
     sampler: Any
     vocoder: Any
+    frames_per_latent: int = 1
 
     def __post_init__(self) -> None:
         self.vae.eval()
@@ -166,7 +168,7 @@ class LearnableMotionToMusic:
             raise ValueError(f"motion must be (T, J, D), got shape {m.shape}")
         n = self.rates.latent_frames(m.shape[0] / float(fps))
         x = torch.from_numpy(self.norms.motion.transform(m))
-        x = align_frames(x, n * self.rates.motion_frames_per_latent, dim=0)
+        x = align_frames(x, n * self.frames_per_latent, dim=0)
         return self.stage.condition(x[None].float())[0]
 
     @torch.no_grad()
@@ -215,6 +217,8 @@ def fit_learnable_motion_to_music(
     dataset: Any,
     data_key: Mapping[str, Any],
     seed: int,
+    *,
+    frames_per_latent: int = 1,
 ) -> LearnableMotionToMusic:
     """Train (or reuse) stage 1 and the learnable motion→music stage on the ``train`` split.
 
@@ -227,7 +231,11 @@ def fit_learnable_motion_to_music(
         dataset: the clips (``Clip.meta["split"]``).
         data_key: the dataset config (part of every stage key).
         seed: seeds the weights and the training.
+        frames_per_latent: motion frames the encoder sees per latent frame (1: the motion at the
+            latent rate, 31.25 fps at MoMu's settings; attention cost grows with its square).
     """
+    if frames_per_latent < 1:
+        raise ValueError(f"learnable_frames_per_latent must be >= 1, got {frames_per_latent}")
     c = method.cfg
     train_idx = select_split(dataset, "train")
     if not train_idx:
@@ -273,7 +281,7 @@ def fit_learnable_motion_to_music(
         num_joints=sample.shape[1],
         joint_dims=sample.shape[2],
         latent_channels=vae.latent_channels,
-        downsample=rates.motion_frames_per_latent,
+        downsample=frames_per_latent,
     )
     encoder = build_component(enc_node, "encoders")
     if not isinstance(encoder, LearnableMotionEncoder):
@@ -301,7 +309,8 @@ def fit_learnable_motion_to_music(
         data = windows()
         z_music = _encode_music_windows(vae, data)
         stage.set_statistics(z_music)
-        motion = torch.stack([it["motion"] for it in data.items])
+        motion = torch.stack([it["motion"] for it in data.items])  # (N, n_z · rates' k, J, D)
+        motion = align_frames(motion, z_music.shape[1] * frames_per_latent, dim=1)
         log.info("learnable motion→music: %d windows of %.2f s", len(data), data.window_seconds)
         return MotionLatentDataset(z_music, motion)
 
@@ -316,4 +325,5 @@ def fit_learnable_motion_to_music(
         rates=rates,
         sampler=build_component(c.sampler, "samplers"),
         vocoder=build_component(c.vocoder, "vocoders"),
+        frames_per_latent=frames_per_latent,
     )

@@ -50,7 +50,9 @@ def beat_plot(truth: Clip, music: Clip, motion: Clip, path: str | Path, *, joint
         ax.set_ylabel(label, rotation=0, ha="right", fontsize=8)
     axes[-1].set_xlabel("time (s)")
     title = "joint generation (cross guidance)" if joint else "cross generation (conditioned on ground truth)"
-    fig.suptitle(f"MoMu beat matching: {truth.id} — {title}; blue: music onsets, red: kinematic beats", fontsize=9)
+    fig.suptitle(
+        f"MoMu beat matching: {truth.id} — {title}; blue: music onsets, red: kinematic beats", fontsize=9
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

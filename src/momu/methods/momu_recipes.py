@@ -7,8 +7,9 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
 
 * ``smoke`` — every row end-to-end in seconds: a dozen 3 s clips, tiny VAEs and DiTs, a few
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
-* ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s), small VAEs (latent 16) and
-  DiTs (width 96, depth 2), a few hundred VAE steps and 1500 diffusion steps per row, 50 DDIM steps.
+* ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s), 4 s windows, small VAEs
+  (latent 16, no attention, latent rate 15.6 Hz, no GAN term) and DiTs (width 64, depth 2), 120 steps
+  per VAE stage and 300 diffusion steps per row, 25 DDIM steps.
 * ``paper`` — MoMu Tables 8–9 and App. A.2/B.3: Table 8 VAEs at the published size (latent 20,
   base width 192, 2 residual blocks, [1,2,4], 3 attention layers, kernel 5), Table 9 DiT (hidden
   576, 8 heads, 4 blocks, condition embedding 1024, kernel 5), AdamW 2e-4 for BiCoR-VAE and 1.6e-5
@@ -31,6 +32,11 @@ _TINY_VAE = (
     "{latent_channels: 8, base_channels: 8, channel_mult: [1, 2], num_res_blocks: 1, attention_layers: 1,"
     " attention_heads: 2, norm_groups: 4}"
 )
+_PAPER_VAE = (
+    "{latent_channels: 20, base_channels: 192, channel_mult: [1, 2, 4], num_res_blocks: 2,"
+    " attention_layers: 3, attention_heads: 8, downsample_rate: 2, downsample_levels: [0], kernel_size: 5,"
+    " norm_groups: 32}"
+)
 _TINY_DIT = "{name: dit, hidden: 32, heads: 2, depth: 1, cond_embed_dim: 32, max_length: 256}"
 
 PRESETS: dict[str, list[str]] = {
@@ -42,8 +48,7 @@ PRESETS: dict[str, list[str]] = {
         "method.window_hop_seconds=0.5",
         f"method.encoder.motion={_TINY_VAE}",
         f"method.encoder.music={_TINY_VAE}",
-        "method.discriminator_encoder.channels=8",
-        "method.discriminator_encoder.norm_groups=4",
+        "method.discriminator_encoder={name: mel_discriminator, channels: 4, num_layers: 1, norm_groups: 4}",
         "method.contrastive_loss.num_clips=4",
         "method.contrastive_loss.num_categories=2",
         "method.contrastive_loss.num_samples=2",
@@ -71,15 +76,16 @@ PRESETS: dict[str, list[str]] = {
         "dataset.max_seconds=30.0",
         "method.window_seconds=10.0",
         "method.window_hop_seconds=5.0",
-        "method.encoder.motion={latent_channels: 20, base_channels: 192, channel_mult: [1, 2, 4],"
-        " num_res_blocks: 2, attention_layers: 3, attention_heads: 8, kernel_size: 5}",
-        "method.encoder.music={latent_channels: 20, base_channels: 192, channel_mult: [1, 2, 4],"
-        " num_res_blocks: 2, attention_layers: 3, attention_heads: 8, kernel_size: 5}",
-        "method.discriminator_encoder={name: mel_discriminator}",
-        "method.contrastive_loss={name: rhythmic_contrastive}",
-        "method.music_backbone={name: dit}",
-        "method.motion_backbone={name: dit}",
-        "method.vocoder={name: griffin_lim}",
+        f"method.encoder.motion={_PAPER_VAE}",
+        f"method.encoder.music={_PAPER_VAE}",
+        # bare names replace the cpu-sized nodes: the registered defaults are Tables 8-9 / App. A
+        "method.discriminator_encoder=mel_discriminator",
+        "method.contrastive_loss=rhythmic_contrastive",
+        "method.music_backbone=dit",
+        "method.motion_backbone=dit",
+        "method.vocoder=griffin_lim",
+        "method.sampler.num_inference_steps=50",
+        "method.joint_sampler.num_inference_steps=50",
         "method.train_music_vae={steps: 200000, batch_size: 16, lr: 2.0e-4}",
         "method.train_motion_vae={steps: 200000, batch_size: 16, lr: 2.0e-4}",
         "method.train_diffusion={steps: 400000, batch_size: 16, lr: 1.6e-5, warmup_steps: 10000}",
@@ -103,8 +109,10 @@ _UNET = "{base_channels: 32, channel_mults: [1, 2, 4], heads: 4, cross_attention
 
 _TABLE7_NOTES = (
     "F1 is in percent like the paper; FAD/FID use feature extractors trained on this run's data "
-    "(the paper uses VGGish and a MotionBERT classifier on its datasets), so only their ordering is comparable.",
-    "Cross rows (#1–#4, #7): music F1 = beat scores of music generated from clip i's motion vs clip i's music; "
+    "(the paper uses VGGish and a MotionBERT classifier on its datasets), so only their ordering is "
+    "comparable.",
+    "Cross rows (#1–#4, #7): music F1 = beat scores of music generated from clip i's motion vs clip i's "
+    "music; "
     "motion F1 = kinematic beats of motion generated from clip i's music vs that music.",
     "Joint rows (#5, #6): both modalities come from noise, so both F1 columns score the jointly generated "
     "music against the jointly generated motion (they agree up to truncation); compare them with the "

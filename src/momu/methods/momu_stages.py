@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 from torch import nn
 from torch.func import functional_call
@@ -113,13 +114,18 @@ class MotionVAEStage(nn.Module):
             length = self.vae.encode_music(music).shape[1]
         out = self.vae.motion_vae(self.vae.align_motion(motion, length))
         terms = self.vae_loss(out.reconstruction, out.target, out.posterior)
-        return terms["loss"], {"reconstruction": float(terms["reconstruction"].detach()), "kl": float(terms["kl"].detach())}
+        return terms["loss"], {
+            "reconstruction": float(terms["reconstruction"].detach()),
+            "kl": float(terms["kl"].detach()),
+        }
 
 
 class DiffusionStage(nn.Module):
     """θ_a and θ_m trained jointly on standardised aligned latents (MoMu Eq. 6)."""
 
-    def __init__(self, music_backbone: nn.Module, motion_backbone: nn.Module, loss: DiffusionLoss, latent: int) -> None:
+    def __init__(
+        self, music_backbone: nn.Module, motion_backbone: nn.Module, loss: DiffusionLoss, latent: int
+    ) -> None:
         super().__init__()
         self.music_backbone = music_backbone
         self.motion_backbone = motion_backbone
@@ -136,6 +142,12 @@ class DiffusionStage(nn.Module):
             getattr(self, f"{name}_mean").copy_(flat.mean(0).float())
             getattr(self, f"{name}_std").copy_(flat.std(0).clamp_min(1e-4).float())
 
+    def statistic(self, name: str) -> np.ndarray:
+        """A latent statistic buffer (``music_mean``, ``music_std``, ``motion_mean``, ``motion_std``)."""
+        value = getattr(self, name)
+        assert isinstance(value, torch.Tensor)
+        return np.asarray(value.detach().cpu().numpy())
+
     def standardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
         return (z - getattr(self, f"{modality}_mean")) / getattr(self, f"{modality}_std")
 
@@ -144,4 +156,7 @@ class DiffusionStage(nn.Module):
         z_m = self.standardise(batch["z_motion"], "motion")
         loss_a = self.loss(self.music_backbone, z_a, z_m).loss  # θ_a: motion → music
         loss_m = self.loss(self.motion_backbone, z_m, z_a).loss  # θ_m: music → motion
-        return loss_a + loss_m, {"motion2music": float(loss_a.detach()), "music2motion": float(loss_m.detach())}
+        return loss_a + loss_m, {
+            "motion2music": float(loss_a.detach()),
+            "music2motion": float(loss_m.detach()),
+        }

@@ -454,7 +454,14 @@ def evaluate_motion_to_music(
             dataset = build_component(scfg.dataset, "datasets")
             train = _train_config(scfg.learnable_train)
             model: MoMuModel | LearnableMotionToMusic = fit_learnable_motion_to_music(
-                sctx, method, scfg.learnable_encoder, train, dataset, to_container(scfg.dataset), seed
+                sctx,
+                method,
+                scfg.learnable_encoder,
+                train,
+                dataset,
+                to_container(scfg.dataset),
+                seed,
+                frames_per_latent=int(scfg.learnable_frames_per_latent),
             )
             truth = eval_crops(dataset, ev.split, ev.num_clips, [float(ev.seconds)])
         else:
