@@ -36,7 +36,7 @@ def _install(session: nox.Session, *extras: str, plugin: bool = False) -> None:
 @nox.session(python=PYTHON)
 def tests(session: nox.Session) -> None:
     """Unit, property and integration tests, the example plugin's tests, and the smoke recipes."""
-    _install(session, "test", "render", plugin=True)
+    _install(session, "test", "render", "video", plugin=True)
     workers = os.environ.get("MOMU_TEST_WORKERS", "2")
     args = session.posargs or ["tests", f"{PLUGIN}/tests", "-n", workers, "--durations=15"]
     session.run("pytest", *args, env=TEST_ENV)

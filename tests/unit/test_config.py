@@ -159,3 +159,16 @@ def test_save_config_round_trips_yaml_and_json(tmp_path: Path) -> None:
     save_config(cfg, tmp_path / "config.json")
     assert json.loads((tmp_path / "config.json").read_text())["backbone"]["width"] == 16
     assert not list(tmp_path.glob("**/.*"))  # no temporary files left behind
+
+
+def test_written_files_get_default_permissions(tmp_path: Path) -> None:
+    import os
+
+    from momu.io import write_json
+
+    umask = os.umask(0o022)
+    try:
+        path = write_json(tmp_path / "r.json", {"a": 1})
+    finally:
+        os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o644
