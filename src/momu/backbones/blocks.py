@@ -30,10 +30,10 @@ __all__ = [
 
 
 def sinusoidal_embedding(t: Tensor, dim: int, max_period: float = 10000.0) -> Tensor:
-    """Transformer sinusoidal embedding of diffusion timesteps (DDPM/MoFusion §3.3).
+    """Transformer sinusoidal embedding of diffusion timesteps or positions (DDPM/MoFusion §3.3).
 
     Args:
-        t: ``(B,)`` timesteps (integer or float).
+        t: ``(B,)`` timesteps or positions (integer or float).
         dim: embedding width.
         max_period: the longest wavelength.
 
@@ -148,12 +148,22 @@ class TransformerBlock(nn.Module):
         mask: Tensor | None = None,
         context: Tensor | None = None,
         context_mask: Tensor | None = None,
+        query_pos: Tensor | None = None,
+        context_pos: Tensor | None = None,
     ) -> Tensor:
-        """``x (B, L, dim)`` with key mask ``mask (B, L)``; optional ``context (B, Lc, context_dim)``."""
+        """``x (B, L, dim)`` with key mask ``mask (B, L)``; optional ``context (B, Lc, context_dim)``.
+
+        ``query_pos`` (``(B, L, dim)``) and ``context_pos`` (``(B, Lc, context_dim)``) are positional
+        encodings added to the attention inputs only (not to the residual stream).
+        """
         h = self.norm1(x)
+        if query_pos is not None:
+            h = h + query_pos
         if self.context_dim is not None:
             if context is None:
                 raise ValueError("context: this cross-modal block needs a context (use the null condition)")
+            if context_pos is not None:
+                context = context + context_pos
             x = x + self.attn(h, context, context_mask)
         else:
             if context is not None:

@@ -29,6 +29,7 @@ from momu.backbones.blocks import (
     check_backbone_inputs,
     check_prefix_mask,
     scaled_init_std,
+    sinusoidal_embedding,
 )
 from momu.registry import BACKBONES
 
@@ -54,6 +55,11 @@ class UNet1DConfig:
         time_freq_dim: sinusoidal frequencies fed to the time MLP.
         mlp_ratio: transformer feed-forward width / channels.
         attention: follow every residual block by a transformer block (False: plain U-Net).
+        attention_positions: add sinusoidal encodings of *time* to the attention inputs — query
+            frame j of level l at input frame ``(j + ½)·2^l − ½``, condition frame k at
+            ``(k + ½)·L_x/L_c − ½`` — so cross-attention can align the two sequences in time
+            (the paper does not say how its attention knows time; without this it can only
+            match content).
         dropout: dropout in residual and transformer blocks.
     """
 
@@ -69,6 +75,7 @@ class UNet1DConfig:
     time_freq_dim: int = 256
     mlp_ratio: float = 4.0
     attention: bool = True
+    attention_positions: bool = True
     dropout: float = 0.0
 
 
@@ -108,14 +115,21 @@ class _Level(nn.Module):
                 self.attn.append(TransformerBlock(cout, cfg.heads, ctx, cfg.mlp_ratio, cfg.dropout))
 
     def forward(
-        self, x: Tensor, temb: Tensor, mask: Tensor, ctx: Tensor | None, ctx_mask: Tensor | None
+        self,
+        x: Tensor,
+        temb: Tensor,
+        mask: Tensor,
+        ctx: Tensor | None,
+        ctx_mask: Tensor | None,
+        pos: tuple[Tensor, Tensor | None] | None = None,
     ) -> Tensor:
         m = mask.to(x.dtype)[:, :, None]
+        q_pos, c_pos = pos if pos is not None else (None, None)
         for i, res in enumerate(self.res):
             x = res(x, temb, mask)
             if len(self.attn):
                 h = x.transpose(1, 2)  # (B, C, T) -> (B, T, C)
-                h = self.attn[i](h, mask, ctx, ctx_mask) * m
+                h = self.attn[i](h, mask, ctx, ctx_mask, query_pos=q_pos, context_pos=c_pos) * m
                 x = h.transpose(1, 2)
         return x
 
@@ -195,6 +209,25 @@ class UNet1D(nn.Module):
             mask = torch.where(drop, first, mask)
         return ctx, mask
 
+    def _positions(
+        self, level: int, frames: int, len_x: Tensor, ctx: Tensor | None, ctx_mask: Tensor | None, ref: Tensor
+    ) -> tuple[Tensor, Tensor | None] | None:
+        """Sinusoidal time encodings (input-frame units) of level ``level``'s queries and of the context."""
+        if not (self.cfg.attention and self.cfg.attention_positions):
+            return None
+        b = len_x.shape[0]
+        width = self.cfg.base_channels * self.cfg.channel_mults[min(level, len(self.cfg.channel_mults) - 1)]
+        scale = 2**level
+        q_t = (torch.arange(frames, device=ref.device, dtype=torch.float32) + 0.5) * scale - 0.5
+        q_pos = sinusoidal_embedding(q_t, width).to(ref.dtype)[None].expand(b, -1, -1)
+        if ctx is None or ctx_mask is None:
+            return q_pos, None
+        len_c = ctx_mask.sum(dim=1).clamp_min(1)
+        k = torch.arange(ctx.shape[1], device=ref.device, dtype=torch.float32)[None, :]
+        c_t = (k + 0.5) * (len_x.float() / len_c.float())[:, None] - 0.5  # (B, Lc)
+        c_pos = sinusoidal_embedding(c_t.reshape(-1), ctx.shape[-1]).view(b, ctx.shape[1], -1)
+        return q_pos, c_pos.to(ref.dtype)
+
     def forward(
         self,
         x: Tensor,
@@ -229,19 +262,22 @@ class UNet1D(nn.Module):
         ctx, ctx_mask = self._context(b, cond, cond_mask, drop_cond, h)
 
         h = self.conv_in(h) * mask.to(h.dtype)[:, None, :]
+        len_x = x_mask.sum(dim=1)
         skips: list[tuple[Tensor, Tensor]] = []
-        for level, down in zip(self.down, self.downsample):
-            h = level(h, temb, mask, ctx, ctx_mask)
+        for i, (level, down) in enumerate(zip(self.down, self.downsample)):
+            h = level(h, temb, mask, ctx, ctx_mask, self._positions(i, h.shape[-1], len_x, ctx, ctx_mask, h))
             skips.append((h, mask))
             # a coarse frame is valid when any of the fine frames it covers is valid
             mask = mask[:, ::2]
             h = down(h) * mask.to(h.dtype)[:, None, :]
-        h = self.mid(h, temb, mask, ctx, ctx_mask)
-        for level, up in zip(self.up, self.upsample):
+        n = len(self.down)
+        h = self.mid(h, temb, mask, ctx, ctx_mask, self._positions(n, h.shape[-1], len_x, ctx, ctx_mask, h))
+        for i, (level, up) in enumerate(zip(self.up, self.upsample)):
             skip, mask = skips.pop()
             h = F.interpolate(h, scale_factor=2.0, mode="nearest")
             h = up(h) * mask.to(h.dtype)[:, None, :]
-            h = level(torch.cat([h, skip], dim=1), temb, mask, ctx, ctx_mask)
+            pos = self._positions(n - 1 - i, h.shape[-1], len_x, ctx, ctx_mask, h)
+            h = level(torch.cat([h, skip], dim=1), temb, mask, ctx, ctx_mask, pos)
         h = self.conv_out(F.silu(self.norm_out(h, mask)))
         out = h[:, :, :length].transpose(1, 2)  # crop, (B, C, T) -> (B, T, C)
         return out * x_mask[..., None].to(out.dtype)
