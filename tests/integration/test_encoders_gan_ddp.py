@@ -18,11 +18,11 @@ def _free_port() -> int:
 
 
 def _worker(rank: int, world: int, port: int) -> None:
+    from tests.helpers.encoders import tiny_vae_config
     from torch.nn.parallel import DistributedDataParallel as DDP
 
     from momu.encoders.bicor_vae import MelVAE
     from momu.encoders.discriminator import MelDiscriminator, MelDiscriminatorConfig
-    from momu.encoders.vae import VAE1dConfig
     from momu.losses.gan import GANLoss, two_step_update
     from momu.losses.vae import VAELoss
 
@@ -32,14 +32,7 @@ def _worker(rank: int, world: int, port: int) -> None:
     try:
         torch.set_num_threads(1)
         torch.manual_seed(0)  # identical initial replicas
-        cfg = VAE1dConfig(
-            latent_channels=4,
-            base_channels=8,
-            channel_mult=[1, 2],
-            num_res_blocks=1,
-            attention_layers=1,
-            attention_heads=2,
-        )
+        cfg = tiny_vae_config()
         vae = DDP(MelVAE(16, cfg))
         disc = DDP(MelDiscriminator(MelDiscriminatorConfig(mel_bins=16, channels=4, num_layers=2)))
         opt_v = torch.optim.AdamW(vae.parameters(), lr=1e-3)

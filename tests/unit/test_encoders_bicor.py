@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
+from tests.helpers.encoders import TINY_VAE
 
 from momu.encoders.bicor_vae import (
     BiCoRVAE,
@@ -20,32 +20,13 @@ from momu.encoders.bicor_vae import (
 )
 from momu.encoders.directional_vector import DirectionalVectorConfig, DirectionalVectorVAE
 from momu.encoders.discriminator import MelDiscriminator, MelDiscriminatorConfig
-from momu.encoders.vae import VAE1dConfig
 from momu.encoders.waveform import WaveformVAE, WaveformVAEConfig
 from momu.features.skeletons import forward_kinematics, get_skeleton
 from momu.registry import ENCODERS
 
-TINY = VAE1dConfig(
-    latent_channels=4,
-    base_channels=8,
-    channel_mult=[1, 2],
-    num_res_blocks=1,
-    attention_layers=1,
-    attention_heads=2,
-)
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread() -> Iterator[None]:
-    """Tiny tensors: intra-op threads only add contention on the shared 2-core machine."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
-
 
 def tiny_bicor(**kw: object) -> BiCoRVAE:
-    cfg = BiCoRVAEConfig(motion=TINY, music=TINY, mel_bins=16, **kw)  # type: ignore[arg-type]
+    cfg = BiCoRVAEConfig(motion=TINY_VAE, music=TINY_VAE, mel_bins=16, **kw)  # type: ignore[arg-type]
     return build_bicor_vae(cfg)
 
 
@@ -121,12 +102,12 @@ def test_input_shape_errors_name_the_expected_layout() -> None:
 
 def test_branch_latent_widths_must_agree() -> None:
     with pytest.raises(ValueError, match="same width"):
-        BiCoRVAE(KeypointVAE(14, 2, TINY), MelVAE(16, dataclasses.replace(TINY, latent_channels=5)))
+        BiCoRVAE(KeypointVAE(14, 2, TINY_VAE), MelVAE(16, dataclasses.replace(TINY_VAE, latent_channels=5)))
 
 
 def test_branches_must_have_the_right_modality() -> None:
     with pytest.raises(ValueError, match="motion branch"):
-        BiCoRVAE(MelVAE(16, TINY), MelVAE(16, TINY))
+        BiCoRVAE(MelVAE(16, TINY_VAE), MelVAE(16, TINY_VAE))
 
 
 # ----------------------------------------------------------------------------- alignment (§3.2)
@@ -172,8 +153,8 @@ def test_branches_are_replaced_through_component_nodes() -> None:
     model = ENCODERS.build(
         "bicor_vae",
         {
-            "motion_encoder": {"name": "directional_vector", "vae": dataclasses.asdict(TINY)},
-            "music_encoder": {"name": "waveform", "hop_length": 8, "vae": dataclasses.asdict(TINY)},
+            "motion_encoder": {"name": "directional_vector", "vae": dataclasses.asdict(TINY_VAE)},
+            "music_encoder": {"name": "waveform", "hop_length": 8, "vae": dataclasses.asdict(TINY_VAE)},
         },
     )
     assert isinstance(model.motion_vae, DirectionalVectorVAE)
@@ -188,8 +169,8 @@ def test_replacement_of_the_wrong_modality_is_an_error() -> None:
 
 
 def test_waveform_vae_lands_on_the_mel_vae_latent_rate() -> None:
-    wave = WaveformVAE(WaveformVAEConfig(vae=TINY))
-    mel = MelVAE(80, TINY)
+    wave = WaveformVAE(WaveformVAEConfig(vae=TINY_VAE))
+    mel = MelVAE(80, TINY_VAE)
     # 16 kHz, hop 256, downsampling 2: 31.25 latent frames per second for both.
     assert wave.latent_rate == 16000 / 512
     assert wave.frames_per_latent == 256 * mel.frames_per_latent
@@ -214,7 +195,7 @@ def rigid_openpose_motion(frames: int = 6, seed: int = 0) -> np.ndarray:
 
 
 def test_directional_representation_round_trips_rigid_motion() -> None:
-    vae = DirectionalVectorVAE(DirectionalVectorConfig(vae=TINY)).double()
+    vae = DirectionalVectorVAE(DirectionalVectorConfig(vae=TINY_VAE)).double()
     motion = torch.as_tensor(rigid_openpose_motion(), dtype=torch.float64)[None]
     vae.fit_bone_lengths(motion)
     rep = vae.represent(motion)
@@ -226,7 +207,7 @@ def test_directional_representation_round_trips_rigid_motion() -> None:
 def test_directional_bone_lengths_are_saved_with_the_weights(tmp_path: Path) -> None:
     from momu.parts_io import load_part, save_part
 
-    cfg = DirectionalVectorConfig(vae=TINY)
+    cfg = DirectionalVectorConfig(vae=TINY_VAE)
     vae = DirectionalVectorVAE(cfg)
     vae.fit_bone_lengths(torch.as_tensor(rigid_openpose_motion(), dtype=torch.float32))
     save_part(vae, "encoders", "directional_vector", cfg, tmp_path / "dv")
@@ -235,23 +216,23 @@ def test_directional_bone_lengths_are_saved_with_the_weights(tmp_path: Path) -> 
 
 
 def test_fit_bone_lengths_rejects_wrong_layout() -> None:
-    vae = DirectionalVectorVAE(DirectionalVectorConfig(vae=TINY))
+    vae = DirectionalVectorVAE(DirectionalVectorConfig(vae=TINY_VAE))
     with pytest.raises(ValueError, match="14, 2"):
         vae.fit_bone_lengths(np.zeros((5, 13, 2)))
 
 
 def test_unknown_skeleton_is_a_config_error() -> None:
     with pytest.raises(ValueError, match="directional_vector.skeleton"):
-        DirectionalVectorVAE(DirectionalVectorConfig(skeleton="nope", vae=TINY))
+        DirectionalVectorVAE(DirectionalVectorConfig(skeleton="nope", vae=TINY_VAE))
 
 
 # ----------------------------------------------------------------------------- save / load
 @pytest.mark.parametrize(
     ("name", "cfg"),
     [
-        ("bicor_vae", BiCoRVAEConfig(motion=TINY, music=TINY, mel_bins=16)),
-        ("waveform", WaveformVAEConfig(hop_length=8, vae=TINY)),
-        ("directional_vector", DirectionalVectorConfig(vae=TINY)),
+        ("bicor_vae", BiCoRVAEConfig(motion=TINY_VAE, music=TINY_VAE, mel_bins=16)),
+        ("waveform", WaveformVAEConfig(hop_length=8, vae=TINY_VAE)),
+        ("directional_vector", DirectionalVectorConfig(vae=TINY_VAE)),
         ("mel_discriminator", MelDiscriminatorConfig(mel_bins=16, channels=4, num_layers=2)),
     ],
 )
@@ -273,8 +254,8 @@ def test_save_load_round_trip_with_replacement_branch(tmp_path: Path) -> None:
     from momu.parts_io import load_part, save_part
 
     params = {
-        "music_encoder": {"name": "waveform", "hop_length": 8, "vae": dataclasses.asdict(TINY)},
-        "motion": dataclasses.asdict(TINY),
+        "music_encoder": {"name": "waveform", "hop_length": 8, "vae": dataclasses.asdict(TINY_VAE)},
+        "motion": dataclasses.asdict(TINY_VAE),
     }
     model = ENCODERS.build("bicor_vae", params)
     save_part(model, "encoders", "bicor_vae", params, tmp_path / "m")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import pytest
 import torch
@@ -25,24 +24,6 @@ from momu.encoders.vae import (
     check_vae_config,
     paper_vae_config,
 )
-
-TINY = VAE1dConfig(
-    latent_channels=4,
-    base_channels=8,
-    channel_mult=[1, 2],
-    num_res_blocks=1,
-    attention_layers=1,
-    attention_heads=2,
-)
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread() -> Iterator[None]:
-    """Tiny tensors: intra-op threads only add contention on the shared 2-core machine."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
 
 
 def test_group_norm_uses_a_divisor_of_the_width() -> None:

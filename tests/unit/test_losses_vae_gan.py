@@ -3,35 +3,17 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import pytest
 import torch
+from tests.helpers.encoders import TINY_VAE
 
 from momu.encoders.bicor_vae import MelVAE
 from momu.encoders.discriminator import MelDiscriminator, MelDiscriminatorConfig
-from momu.encoders.vae import DiagonalGaussian, VAE1dConfig
+from momu.encoders.vae import DiagonalGaussian
 from momu.losses.gan import GANLoss, GANLossConfig, requires_grad, two_step_update
 from momu.losses.vae import VAELoss, VAELossConfig, reconstruction_error
 from momu.registry import LOSSES
-
-TINY = VAE1dConfig(
-    latent_channels=4,
-    base_channels=8,
-    channel_mult=[1, 2],
-    num_res_blocks=1,
-    attention_layers=1,
-    attention_heads=2,
-)
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread() -> Iterator[None]:
-    """Tiny tensors: intra-op threads only add contention on the shared 2-core machine."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
 
 
 def standard_normal(shape: tuple[int, ...] = (2, 3, 4)) -> DiagonalGaussian:
@@ -132,7 +114,7 @@ def test_requires_grad_context_restores_flags() -> None:
 # ----------------------------------------------------------------------------- two-step update
 def _setup(vae_lr: float, disc_lr: float, seed: int = 0) -> tuple:
     torch.manual_seed(seed)
-    vae = MelVAE(16, TINY)
+    vae = MelVAE(16, TINY_VAE)
     disc = MelDiscriminator(MelDiscriminatorConfig(mel_bins=16, channels=4, num_layers=2))
     opt_v = torch.optim.SGD(vae.parameters(), lr=vae_lr)
     opt_d = torch.optim.SGD(disc.parameters(), lr=disc_lr)

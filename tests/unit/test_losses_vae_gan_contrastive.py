@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import pytest
 import torch
+from tests.helpers.encoders import TINY_VAE
 
 from momu.encoders.bicor_vae import BiCoRVAEConfig, build_bicor_vae, stage2_loss
-from momu.encoders.vae import VAE1dConfig
 from momu.losses.rhythmic_contrastive import (
     RhythmicContrastiveConfig,
     RhythmicContrastiveLoss,
@@ -20,24 +19,6 @@ from momu.losses.rhythmic_contrastive import (
     symmetric_info_nce,
 )
 from momu.losses.vae import VAELoss
-
-TINY = VAE1dConfig(
-    latent_channels=4,
-    base_channels=8,
-    channel_mult=[1, 2],
-    num_res_blocks=1,
-    attention_layers=1,
-    attention_heads=2,
-)
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread() -> Iterator[None]:
-    """Tiny tensors: intra-op threads only add contention on the shared 2-core machine."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
 
 
 def test_info_nce_by_hand_for_orthogonal_pairs() -> None:
@@ -150,7 +131,7 @@ def test_config_errors() -> None:
 # ----------------------------------------------------------------------------- stage 2 (Eq. 11)
 def _stage2_setup() -> tuple:
     torch.manual_seed(0)
-    model = build_bicor_vae(BiCoRVAEConfig(motion=TINY, music=TINY, mel_bins=16))
+    model = build_bicor_vae(BiCoRVAEConfig(motion=TINY_VAE, music=TINY_VAE, mel_bins=16))
     contrastive = RhythmicContrastiveLoss(
         RhythmicContrastiveConfig(num_clips=8, num_categories=4, num_samples=4, clip_length=2)
     )
