@@ -1,4 +1,4 @@
-"""What the clip-level beat/harmony metrics share: reading a clip's modalities and provenance."""
+"""What the clip-level metrics share: reading a clip's modalities, the generated-clip check, provenance."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from momu.data.types import Clip
 
-__all__ = ["ClipMetric", "clip_motion", "clip_audio", "check_pairs", "clip_beat_times"]
+__all__ = ["ClipMetric", "clip_motion", "clip_audio", "check_pairs", "clip_beat_times", "require_clips"]
 
 
 def clip_motion(clip: Clip, metric: str) -> np.ndarray:
@@ -20,6 +20,14 @@ def clip_motion(clip: Clip, metric: str) -> np.ndarray:
     if not clip.fps or clip.fps <= 0:
         raise ValueError(f"{metric}: clip {clip.id!r} has an invalid frame rate {clip.fps!r}")
     return np.asarray(clip.motion)
+
+
+def require_clips(generated: Sequence[Clip], metric: str) -> list[Clip]:
+    """The generated clips as a list; a clear error when there are none."""
+    clips = list(generated)
+    if not clips:
+        raise ValueError(f"{metric}: no generated clips to evaluate")
+    return clips
 
 
 def clip_audio(clip: Clip, metric: str) -> tuple[np.ndarray, int]:
@@ -71,7 +79,4 @@ class ClipMetric:
         }
 
     def _require(self, generated: Sequence[Clip]) -> list[Clip]:
-        clips = list(generated)
-        if not clips:
-            raise ValueError(f"{self.name}: no generated clips to evaluate")
-        return clips
+        return require_clips(generated, self.name)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from momu.data.types import Clip
+from momu.metrics._clips import clip_motion, require_clips
 from momu.metrics.base import MetricResult
 from momu.metrics.diversity import diversity, multimodality
 from momu.metrics.frechet import FID_VARIANTS, fid
@@ -153,21 +154,17 @@ def _check_config(cfg: MotionFeatureConfig) -> None:
 def _clip_positions(clip: Clip, metric: str) -> np.ndarray:
     """The clip's global SMPL-24 positions ``(T, 24, 3)`` (root-centred motion + ``trajectory`` when given),
     with clear errors for anything else."""
-    if clip.motion is None:
-        raise ValueError(f"{metric}: clip {clip.id!r} has no motion")
+    motion = clip_motion(clip, metric)  # has motion and a positive frame rate
     if clip.skeleton and clip.skeleton != "smpl24":
         raise ValueError(
             f"{metric}: clip {clip.id!r} has skeleton {clip.skeleton!r}; kinetic/geometric features are "
             "defined on SMPL-24 joints ('smpl24')"
         )
-    motion = np.asarray(clip.motion)
     if motion.ndim != 3 or motion.shape[1:] != (24, 3):
         raise ValueError(
             f"{metric}: clip {clip.id!r} motion must be SMPL-24 positions (T, 24, 3), "
             f"got shape {motion.shape}"
         )
-    if not clip.fps or clip.fps <= 0:
-        raise ValueError(f"{metric}: clip {clip.id!r} has an invalid frame rate {clip.fps!r}")
     if clip.trajectory is not None:
         # Root-centred motion (Clip.trajectory holds the root's global path): restore global positions,
         # which the reference features are computed on.
@@ -262,10 +259,7 @@ class _FeatureMetric:
         }
 
     def _generated(self, generated: Sequence[Clip]) -> list[Clip]:
-        clips = list(generated)
-        if not clips:
-            raise ValueError(f"{self.name}: no generated clips to evaluate")
-        return clips
+        return require_clips(generated, self.name)
 
     def _reference(self, reference: Sequence[Clip] | None) -> list[Clip]:
         if reference is None:
@@ -304,8 +298,8 @@ class FIDMetric(_FeatureMetric):
 
 
 @dataclasses.dataclass
-class DivMetric(_FeatureMetric):
-    """Div_k / Div_g over clips: ``name`` for the generated set, ``name.reference`` for the ground truth."""
+class _DistanceMetric(_FeatureMetric):
+    """Base of Div and Multimodality: an ``accumulate`` mode, and reference clips only when normalising."""
 
     def __post_init__(self) -> None:
         _check_config(self.cfg)
@@ -314,6 +308,11 @@ class DivMetric(_FeatureMetric):
                 f"{self.name}: accumulate must be 'reference' or 'float64', got {self.cfg.accumulate!r}"
             )
         self.needs_reference = bool(self.cfg.normalize)
+
+
+@dataclasses.dataclass
+class DivMetric(_DistanceMetric):
+    """Div_k / Div_g over clips: ``name`` for the generated set, ``name.reference`` for the ground truth."""
 
     def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
         gen = clip_features(self._generated(generated), self.kind, self.cfg, metric=self.name)
@@ -332,16 +331,8 @@ class DivMetric(_FeatureMetric):
 
 
 @dataclasses.dataclass
-class MultimodalityMetric(_FeatureMetric):
+class MultimodalityMetric(_DistanceMetric):
     """MoFusion Multimodality over clips grouped by ``clip.meta[group_key]``."""
-
-    def __post_init__(self) -> None:
-        _check_config(self.cfg)
-        if self.cfg.accumulate not in ("reference", "float64"):
-            raise ValueError(
-                f"{self.name}: accumulate must be 'reference' or 'float64', got {self.cfg.accumulate!r}"
-            )
-        self.needs_reference = bool(self.cfg.normalize)
 
     def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
         clips = self._generated(generated)
