@@ -108,6 +108,8 @@ def load_training_clips(args: argparse.Namespace) -> list[Any]:
         params: dict[str, Any] = {"root": str(root)}
         if "split" in fields and split is not None:
             params["split"] = split
+        if "load_audio" in fields and args.kind == "motion":
+            params["load_audio"] = False  # motion classifiers never read the audio
         dataset = DATASETS.build(args.dataset, params)
     clips = [dataset[i] for i in range(len(dataset))]
     if not clips:
