@@ -50,11 +50,11 @@ class MfccEncoder(nn.Module):
 
     @property
     def out_channels(self) -> int:
-        return self.cfg.n_mfcc
+        return self.mfcc.out_channels
 
     @property
     def frame_rate(self) -> float:
-        return self.cfg.sample_rate / self.cfg.hop
+        return self.mfcc.frame_rate
 
     @property
     def sample_rate(self) -> int:

@@ -165,7 +165,8 @@ class Mfcc(nn.Module):
 
     @property
     def frame_rate(self) -> float:
-        return self.cfg.sample_rate / self.cfg.hop
+        """Output frames per second (the mel front end's: ``sample_rate / hop``)."""
+        return self.mel.frame_rate
 
     def forward(self, waveform: torch.Tensor) -> torch.Tensor:
         _, squeeze = _as_batch(waveform, "Mfcc")
