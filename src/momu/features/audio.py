@@ -390,18 +390,7 @@ def mfcc(audio: np.ndarray, sr: int | float, cfg: MfccConfig | None = None) -> n
     Used as HarmoGAN's audio input A_f (§IV-B) and as BHS/Dancing2Music-style audio features.
     """
     cfg = cfg or MfccConfig()
-    x = resample(audio, sr, cfg.sample_rate)
-    power = librosa.feature.melspectrogram(
-        y=x,
-        sr=cfg.sample_rate,
-        n_fft=cfg.n_fft,
-        hop_length=cfg.hop,
-        n_mels=cfg.n_mels,
-        fmin=cfg.fmin,
-        fmax=cfg.fmax,
-        power=2.0,
-    )
-    db = librosa.power_to_db(power, ref=1.0, amin=1e-10, top_db=cfg.top_db)
+    db = log_mel(audio, sr, cfg.mel_config())  # dB mel power at cfg.sample_rate, top_db-clipped
     out = librosa.feature.mfcc(S=db, n_mfcc=cfg.n_mfcc, lifter=cfg.lifter)
     return out.astype(np.float32)
 
