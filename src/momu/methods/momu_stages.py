@@ -45,6 +45,18 @@ def stage_step(model: nn.Module, batch: Any) -> tuple[torch.Tensor, dict[str, fl
     return loss, logs
 
 
+def _with_every_parameter(module: nn.Module, loss: torch.Tensor) -> torch.Tensor:
+    """``loss + 0 · Σ params``: every trainable parameter joins the graph with a zero gradient.
+
+    Under DistributedDataParallel (several processes) every parameter must receive a gradient each
+    step; a backbone's learned null condition is unused in a batch where no condition was dropped,
+    and a plugin part may have parameters a step does not use. The zero term changes no value and
+    no gradient.
+    """
+    extra = [p.sum() for p in module.parameters() if p.requires_grad]
+    return loss + 0.0 * torch.stack(extra).sum() if extra else loss
+
+
 def _music_input(vae: SequenceVAE, batch: dict[str, torch.Tensor]) -> torch.Tensor:
     key = "wave" if vae.input_kind == "waveform" else "mel"
     if key not in batch:
@@ -90,7 +102,7 @@ class MusicVAEStage(nn.Module):
                 generator_weight=float(weight.detach()),
                 discriminator=float(d_loss.detach()),
             )
-        return total, logs
+        return _with_every_parameter(self, total), logs
 
 
 class MotionVAEStage(nn.Module):
@@ -109,12 +121,12 @@ class MotionVAEStage(nn.Module):
         if self.contrastive is not None:
             terms = stage2_loss(self.vae, motion, music, vae_loss=self.vae_loss, contrastive=self.contrastive)
             logs = {k: float(v.detach()) for k, v in terms.items() if k != "loss"}
-            return terms["loss"], logs
+            return _with_every_parameter(self, terms["loss"]), logs
         with torch.no_grad():
             length = self.vae.encode_music(music).shape[1]
         out = self.vae.motion_vae(self.vae.align_motion(motion, length))
         terms = self.vae_loss(out.reconstruction, out.target, out.posterior)
-        return terms["loss"], {
+        return _with_every_parameter(self, terms["loss"]), {
             "reconstruction": float(terms["reconstruction"].detach()),
             "kl": float(terms["kl"].detach()),
         }
@@ -156,7 +168,7 @@ class DiffusionStage(nn.Module):
         z_m = self.standardise(batch["z_motion"], "motion")
         loss_a = self.loss(self.music_backbone, z_a, z_m).loss  # θ_a: motion → music
         loss_m = self.loss(self.motion_backbone, z_m, z_a).loss  # θ_m: music → motion
-        return loss_a + loss_m, {
+        return _with_every_parameter(self, loss_a + loss_m), {
             "motion2music": float(loss_a.detach()),
             "music2motion": float(loss_m.detach()),
         }

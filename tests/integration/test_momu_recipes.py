@@ -1,0 +1,109 @@
+"""MoMu recipes at ``--preset smoke``: Table 7 on one and on two processes (gloo on CPU), Table 10."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+LAUNCHER = Path(sys.executable).with_name("accelerate")
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "disabled", "PYTHONHASHSEED": "0"}
+TABLE7_ROWS = ["#1", "#2", "#3", "#4", "#5", "#6", "#7"]
+COLUMNS = ["music_fad", "music_f1", "motion_fid", "motion_f1"]
+
+
+def _launch(recipe: str, out: Path, *, processes: int = 1, extra: tuple[str, ...] = ()) -> dict:
+    multi = ["--multi_gpu", "--num_processes", str(processes)] if processes > 1 else ["--num_processes", "1"]
+    cmd = [
+        str(LAUNCHER),
+        "launch",
+        *multi,
+        "--num_machines",
+        "1",
+        "--mixed_precision",
+        "no",
+        "--dynamo_backend",
+        "no",
+        str(ROOT / "recipes" / recipe),
+        "--preset",
+        "smoke",
+        "--out",
+        str(out),
+        "--tracker",
+        "none",
+        *extra,
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return json.loads((out / recipe.removesuffix(".py") / "results.json").read_text())
+
+
+def _check_complete(result: dict, rows: list[str]) -> None:
+    assert [r["id"] for r in result["rows"]] == rows
+    for row in result["rows"]:
+        for key in COLUMNS:
+            assert math.isfinite(row["metrics"][key]), (row["id"], key)
+        assert row["paper"], row["id"]
+    names = [c["name"] for c in result["calibration"]]
+    assert names == ["ground truth", "ground truth, music and motion shuffled"]
+    for cal in result["calibration"]:
+        assert all(math.isfinite(cal["metrics"][k]) for k in COLUMNS)
+    assert result["calibration"][0]["metrics"]["music_f1"] == pytest.approx(100.0)  # GT vs itself
+
+
+def test_table7_smoke_single_process(tmp_path: Path) -> None:
+    result = _launch("momu_table7.py", tmp_path)
+    _check_complete(result, TABLE7_ROWS)
+    stages = result["provenance"]["stages"]
+    # 2 music VAEs (mel, waveform), 4 motion VAEs (#1, #2, #3, base), 5 diffusion pairs (#5-#7 share one)
+    assert sum(k.startswith("music_vae-") for k in stages) == 2
+    assert sum(k.startswith("motion_vae-") for k in stages) == 4
+    assert sum(k.startswith("diffusion-") for k in stages) == 5
+    assert "motion_f1_shuffled_cond" in result["rows"][-1]["metrics"]
+    models = list((tmp_path / "momu_table7" / "models").glob("momu-*/momu.json"))
+    assert len(models) == 5
+    assert list((tmp_path / "momu_table7" / "models").glob("momu-*/beats.png"))
+
+
+def test_table7_smoke_two_processes(tmp_path: Path) -> None:
+    result = _launch("momu_table7.py", tmp_path, processes=2)
+    _check_complete(result, TABLE7_ROWS)
+    assert result["provenance"]["num_processes"] == 2
+
+
+def test_table10_smoke(tmp_path: Path) -> None:
+    result = _launch("momu_table10.py", tmp_path)
+    _check_complete(result, ["Tc=0.9T", "Tc=0.7T", "Tc=0.5T", "Tc=0.3T", "Tc=0.1T"])
+    stages = result["provenance"]["stages"]
+    assert len(stages) == 5  # 3 stages + 2 extractors: trained once, reused by the other four rows
+
+
+def test_bad_row_fails_before_training(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "recipes" / "momu_table7.py"),
+            "--preset",
+            "smoke",
+            "--rows",
+            "#8",
+            "--out",
+            str(tmp_path),
+            "--tracker",
+            "none",
+        ],
+        capture_output=True,
+        text=True,
+        env=ENV,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().endswith("--rows: unknown row #8; valid rows: #1, #2, #3, #4, #5, #6, #7")
+    assert not (tmp_path / "momu_table7").exists()
