@@ -29,26 +29,15 @@ def make_pair_dirs(tmp_path: Path, n: int = 2, gen_audio: bool = False) -> tuple
     return gen, gt
 
 
+def run_eval(gen: Path, gt: Path, metrics: str, *options: str) -> int:
+    """``momu eval --gen GEN --gt GT --metrics METRICS [options]``; returns its exit status."""
+    return main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", metrics, *options])
+
+
 def test_eval_prints_table_and_writes_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     gen, gt = make_pair_dirs(tmp_path)
     out = tmp_path / "res" / "scores.json"
-    rc = main(
-        [
-            "eval",
-            "--gen",
-            str(gen),
-            "--gt",
-            str(gt),
-            "--metrics",
-            "hit_rate,bas",
-            "--fps",
-            "30",
-            "--set",
-            "bas.variant=mint",
-            "--out",
-            str(out),
-        ]
-    )
+    rc = run_eval(gen, gt, "hit_rate,bas", "--fps", "30", "--set", "bas.variant=mint", "--out", str(out))
     assert rc == 0
     table = capsys.readouterr().out
     assert "hit_rate" in table and "bas" in table and "(2 pairs)" in table
@@ -65,55 +54,36 @@ def test_eval_prints_table_and_writes_json(tmp_path: Path, capsys: pytest.Captur
 def test_generated_audio_is_used_when_present(tmp_path: Path) -> None:
     gen, gt = make_pair_dirs(tmp_path, gen_audio=True)
     out = tmp_path / "s.json"
-    assert (
-        main(
-            [
-                "eval",
-                "--gen",
-                str(gen),
-                "--gt",
-                str(gt),
-                "--metrics",
-                "hit_rate",
-                "--fps",
-                "30",
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
+    assert run_eval(gen, gt, "hit_rate", "--fps", "30", "--out", str(out)) == 0
     assert json.loads(out.read_text())["scores"]["hit_rate"] == 0.0  # off-beat generated music
 
 
 def test_missing_dir_unpaired_and_unknown_metric(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     gen, gt = make_pair_dirs(tmp_path)
-    assert main(["eval", "--gen", str(tmp_path / "nope"), "--gt", str(gt), "--metrics", "bas"]) == 2
+    assert run_eval(tmp_path / "nope", gt, "bas") == 2
     assert "folder not found" in capsys.readouterr().err
     np.save(gen / "extra.npy", swing(FPS, 2.0))
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas"]) == 2
+    assert run_eval(gen, gt, "bas") == 2
     err = capsys.readouterr().err
     assert "unpaired" in err and "extra" in err
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas,not_a_metric"]) == 2
+    assert run_eval(gen, gt, "bas,not_a_metric") == 2
     err = capsys.readouterr().err
     assert "not_a_metric" in err and "valid names" in err
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "pfc.x=1"]) == 2
-    assert (
-        main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "bas.variant=x"]) == 2
-    )
+    assert run_eval(gen, gt, "bas", "--set", "pfc.x=1") == 2
+    assert run_eval(gen, gt, "bas", "--set", "bas.variant=x") == 2
     assert "variant" in capsys.readouterr().err
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas", "--set", "bas.nope=1"]) == 2
+    assert run_eval(gen, gt, "bas", "--set", "bas.nope=1") == 2
     assert "valid keys" in capsys.readouterr().err
 
 
 def test_bad_motion_file_and_failing_metric(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     gen, gt = make_pair_dirs(tmp_path, n=1)
     np.save(gen / "clip0.npy", np.zeros((10, 24)))
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "bas"]) == 2
+    assert run_eval(gen, gt, "bas") == 2
     assert "(T, J, D)" in capsys.readouterr().err
     np.save(gen / "clip0.npy", np.zeros((30, 24, 3), dtype=np.float32))  # static: PFC is undefined
     out = tmp_path / "s.json"
-    assert main(["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "pfc", "--out", str(out)]) == 1
+    assert run_eval(gen, gt, "pfc", "--out", str(out)) == 1
     data = json.loads(out.read_text())
     assert "never accelerates" in data["errors"]["pfc"] and data["scores"] == {}
 
@@ -143,8 +113,8 @@ def test_any_registered_metric_runs_by_name(tmp_path: Path) -> None:
     try:
         gen, gt = make_pair_dirs(tmp_path)
         out = tmp_path / "s.json"
-        args = ["eval", "--gen", str(gen), "--gt", str(gt), "--metrics", "test_total_frames", "--fps", "30"]
-        assert main([*args, "--set", "test_total_frames.scale=2", "--out", str(out)]) == 0
+        options = ["--fps", "30", "--set", "test_total_frames.scale=2", "--out", str(out)]
+        assert run_eval(gen, gt, "test_total_frames", *options) == 0
         data = json.loads(out.read_text())
         assert data["scores"]["test_total_frames"] == 2 * 150 * 2 / 2  # two 150-frame clips, two references
         assert data["metrics"]["test_total_frames"]["provenance"] == {"scale": 2.0}
