@@ -37,7 +37,8 @@ from momu.methods.momu_tables import (
 REPO = Path(__file__).resolve().parents[2]
 CONFIGS = REPO / "recipes" / "configs"
 # keep the smoke runs small: 2 evaluation clips per subset
-SMALL = ["--preset", "smoke", "--tracker", "none", "method.evaluation.num_clips=2"]
+FLAGS = ["--preset", "smoke", "--tracker", "none"]
+SMALL = ["method.evaluation.num_clips=2"]  # overrides go last (one positional list)
 
 
 def _spec(name: str) -> Any:
@@ -50,7 +51,7 @@ def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, 
     torch.set_num_threads(1)
     results = {}
     for name in ("momu_table2", "momu_table5", "momu_table6", "momu_table3", "momu_table4"):
-        status = run_table(_spec(name), [*SMALL, "--out", str(out)])
+        status = run_table(_spec(name), [*FLAGS, "--out", str(out), *SMALL])
         assert status == 0, name
         results[name] = json.loads((out / name / "results.json").read_text())
         results[name]["_dir"] = out / name
@@ -193,15 +194,16 @@ def test_subset_config_lengths_and_real_data(tmp_path: Path) -> None:
 
 
 def test_bad_arguments_fail_before_training(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    for argv in (["--rows", "nope"], ["--data", str(tmp_path / "missing")], ["learnable_encoder.depthh=2"]):
-        assert (
-            run_table(
-                table2_spec(CONFIGS / "momu.yaml", CONFIGS / "momu_tables.yaml"),
-                [*SMALL, "--out", str(tmp_path), *argv],
-            )
-            == 2
-        )
-    assert "unknown row nope" in capsys.readouterr().err
+    spec = table2_spec(CONFIGS / "momu.yaml", CONFIGS / "momu_tables.yaml")
+    cases = [
+        (["--rows", "nope"], []),
+        (["--data", str(tmp_path / "missing")], []),
+        ([], ["learnable_encoder.depthh=2"]),
+    ]
+    for flags, overrides in cases:
+        assert run_table(spec, [*FLAGS, "--out", str(tmp_path), *flags, *SMALL, *overrides]) == 2
+    err = capsys.readouterr().err
+    assert "unknown row nope" in err and "missing" in err and "depthh" in err
     assert not (tmp_path / "momu_shared").exists()
     for factory in (table4_spec, table5_spec, table6_spec):
         assert factory(CONFIGS / "momu.yaml", CONFIGS / "momu_tables.yaml").presets.keys() == {

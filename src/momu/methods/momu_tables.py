@@ -25,7 +25,7 @@ as in the paper — train it once per ``--out`` (the stage keys are content hash
 is ever reused).
 
 Columns hold percentages like the paper (BCS, CSD, BHS, HSD, F1 × 100). FID / Diversity / Mean
-KLD use the motion classifier trained on the subset at hand (:func:`momu.methods.momu_eval.ensure_extractors`;
+KLD use the motion classifier trained on the subset at hand (:func:`motion_extractor`;
 the paper uses a MotionBERT classifier trained on BHS Dance), so only their ordering is comparable
 with the paper.
 """
@@ -41,18 +41,20 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from momu.config import ConfigError, apply_overrides, build_component, to_container, validate
+from momu.config import ConfigError, apply_overrides, build_component, to_container
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.evaluate import map_gathered
 from momu.engine.table import Column, PaperRow, Row, TableSpec
 from momu.engine.trainer import TrainConfig
 from momu.methods.momu import MoMu, MoMuModel
-from momu.methods.momu_data import eval_crops
-from momu.methods.momu_eval import _clip, beat_onset_f1, derangement, ensure_extractors, onset_alignment
+from momu.methods.momu_data import eval_crops, select_split
+from momu.methods.momu_eval import _clip, beat_onset_f1, derangement, onset_alignment
 from momu.methods.momu_learnable import LearnableMotionToMusic, fit_learnable_motion_to_music
 from momu.methods.momu_recipes import BASE_CONFIG
 from momu.methods.momu_recipes import PRESETS as MOMU_PRESETS
+from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
+from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.loris_scores import onset_times
 from momu.registry import METRICS
 
@@ -222,12 +224,15 @@ def beat_percent(prefix: str, scores: Mapping[str, float]) -> dict[str, float]:
 
 # ---------------------------------------------------------------------------------------- config
 def table_base_config(
-    momu_yaml: str | Path = BASE_CONFIG, tables_yaml: str | Path = TABLES_CONFIG
+    momu_yaml: str | Path = BASE_CONFIG,
+    tables_yaml: str | Path = TABLES_CONFIG,
+    subsets: Sequence[str] | None = None,
 ) -> dict[str, Any]:
-    """``momu.yaml`` (the method) merged with ``momu_tables.yaml`` (subsets); its ``dataset`` node is dropped.
+    """``momu.yaml`` (the method) merged with ``momu_tables.yaml``; its ``dataset`` node is dropped.
 
     Each subset brings its own dataset node; the method, the training settings and the evaluation
     settings are ``momu.yaml``'s, so Tables 2–6 and Table 7 train the same model on the same data.
+    ``subsets`` keeps only the table's own subsets (all when ``None``).
     """
     for path in (momu_yaml, tables_yaml):
         if not Path(path).is_file():
@@ -235,6 +240,12 @@ def table_base_config(
     base = OmegaConf.to_container(OmegaConf.merge(OmegaConf.load(momu_yaml), OmegaConf.load(tables_yaml)))
     assert isinstance(base, dict)
     base.pop("dataset", None)
+    if subsets is not None:
+        defined = base.get("subsets") or {}
+        missing = [s for s in subsets if s not in defined]
+        if missing:
+            raise ConfigError(f"{tables_yaml}: subsets {', '.join(missing)} not defined")
+        base["subsets"] = {s: defined[s] for s in subsets}
     return {str(k): v for k, v in base.items()}
 
 
@@ -287,7 +298,8 @@ _EXTRA_PRESETS: dict[str, Callable[[Sequence[str]], list[str]]] = {
 def subset_config(cfg: DictConfig, subset: str) -> DictConfig:
     """``cfg`` with ``dataset`` set to ``subset``'s node (synthetic or real) and its length applied.
 
-    ``--data DIR`` (``real_data.root`` set) selects ``real_dataset``, otherwise ``synth_dataset``.
+    ``--data DIR`` (``real_data.root`` set) selects ``real_dataset`` (a relative ``root`` is taken
+    under ``DIR``), otherwise ``synth_dataset``.
     A subset with ``seconds`` (Tables 3–4) sets the stand-in's clip length, the evaluation length
     and the training window to it (hop: half of it): the paper trains and evaluates each length
     column on clips of that length.
@@ -297,8 +309,11 @@ def subset_config(cfg: DictConfig, subset: str) -> DictConfig:
     if subset not in subsets:
         raise ConfigError(f"subsets.{subset}: not defined; defined subsets: {', '.join(subsets) or 'none'}")
     sub = subsets[subset]
-    real = (plain.get("real_data") or {}).get("root") is not None
+    real_root = (plain.get("real_data") or {}).get("root")
+    real = real_root is not None
     node = dict(sub["real_dataset"] if real else sub["synth_dataset"])
+    if real and node.get("root") is not None:  # a relative root is a folder under --data DIR
+        node["root"] = str(Path(str(real_root)) / str(node["root"]))
     overrides = []
     if real and sub.get("real_joints"):  # the keypoint VAE's input layout of the real data
         joints, dims = (int(x) for x in sub["real_joints"])
@@ -315,7 +330,10 @@ def subset_config(cfg: DictConfig, subset: str) -> DictConfig:
         ]
     plain["dataset"] = node
     plain.pop("subsets", None)
-    return validate(apply_overrides(plain, overrides))
+    # ``cfg`` is validated already; the parts built from the result validate their own nodes
+    out = apply_overrides(plain, overrides)
+    OmegaConf.set_readonly(out, True)
+    return out
 
 
 def check_subsets(cfg: DictConfig, subsets: Sequence[str], *, need_audio: bool = True) -> None:
@@ -520,6 +538,37 @@ def _generate_motion(
     return gen, shuf
 
 
+def motion_extractor(ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], ev: Any, seed: int) -> Any:
+    """The FID / Diversity / Mean KLD motion classifier, trained once on the ``train`` split.
+
+    The same cache file (key, hash and name) as :func:`momu.methods.momu_eval.ensure_extractors`,
+    which also trains the audio extractor that Table 6 does not need.
+    """
+    key = {
+        "data": dict(data_key),
+        "epochs": int(ev.extractor_epochs),
+        "samples_per_clip": int(ev.extractor_samples_per_clip),
+        "seed": seed,
+    }
+    path = ctx.parts_dir / f"extractor-motion-{stage_key_hash(key)}.safetensors"
+    if path.is_file():
+        ctx.trained[path.stem] = "reused"
+    else:
+        if ctx.accelerator.is_main_process:
+            clips = [dataset[i] for i in select_split(dataset, "train")]
+            train = ExtractorTrainConfig(
+                epochs=int(ev.extractor_epochs),
+                samples_per_clip=int(ev.extractor_samples_per_clip),
+                seed=seed,
+                val_fraction=0.0,
+            )
+            path.parent.mkdir(parents=True, exist_ok=True)
+            train_extractor("motion", clips, path, train=train)
+        ctx.accelerator.wait_for_everyone()
+        ctx.trained[path.stem] = "trained"
+    return load_extractor(path)
+
+
 def _quality(
     extractor: Any, generated: Sequence[Clip], reference: Sequence[Clip], prefix: str, ev: Any
 ) -> dict[str, float]:
@@ -552,7 +601,7 @@ def evaluate_music_to_motion(
         ev = model.cfg.evaluation
         gen, shuf = _generate_motion(ctx, sid, model, truth, seed, ev)
         if quality:
-            motion_ext, _ = ensure_extractors(sctx, dataset, data_key, ev, seed)
+            motion_ext = motion_extractor(sctx, dataset, data_key, ev, seed)
             out.update(_quality(motion_ext, gen, truth, sid, ev))
         else:
             out.update(beat_percent(sid, METRICS.build("kinematic_beat_scores", {})(gen, truth)))
@@ -609,7 +658,7 @@ def calibrate_tables(
             shuffled[f"{sid}_onset_f1"] = onset_alignment(truth, moved)
         else:
             data_key = to_container(scfg.dataset)
-            motion_ext, _ = ensure_extractors(sctx, dataset, data_key, ev, int(cfg.get("seed", 0)))
+            motion_ext = motion_extractor(sctx, dataset, data_key, ev, int(cfg.get("seed", 0)))
             others = eval_crops(dataset, ev.reference_split, len(truth), [float(ev.seconds)])[: len(truth)]
             if len(others) != len(truth):
                 raise ValueError(
@@ -644,7 +693,7 @@ def _spec(
     return TableSpec(
         name=name,
         title=title,
-        base_config=table_base_config(momu_yaml, tables_yaml),
+        base_config=table_base_config(momu_yaml, tables_yaml, subsets),
         presets=table_presets(subsets),
         columns=columns,
         rows=[Row("ours", "MoMu-Diffusion (ours)", (), paper["Ours"])],
