@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from momu.data.synth.motion import (
-    Camera,
+    CameraConfig,
     beat_phase,
     choose_keys,
     ease_keys,
@@ -45,22 +45,6 @@ SPLITS: tuple[str, ...] = ("train", "val", "test")
 # every split, and the first three blocks already cover all splits.
 _SPLIT_CYCLE: tuple[str, ...] = ("train", "val", "test") + ("train",) * 7
 DEFAULT_STYLES: tuple[str, ...] = ("ballet", "hiphop", "zumba")
-
-
-@dataclass
-class CameraConfig:
-    """Virtual camera of 2D skeletons (``openpose14``): pixels, origin top-left, v down.
-
-    The dancer (rest orientation facing the camera) stands at the origin; the camera sits
-    ``distance`` metres away on +Z at ``height_m`` metres; ``focal_px`` is in pixels (a 1.7 m
-    dancer at 5 m is about 370 px tall).
-    """
-
-    width: int = 1280
-    height: int = 720
-    focal_px: float = 1100.0
-    distance: float = 5.0
-    height_m: float = 1.0
 
 
 @dataclass
@@ -273,8 +257,7 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
 
     trajectory = None
     if skeleton.dims == 2:
-        cam = cfg.camera
-        motion = project(positions, Camera(cam.width, cam.height, cam.focal_px, cam.distance, cam.height_m))
+        motion = project(positions, cfg.camera)
     elif cfg.root_centred:
         trajectory = positions[:, skeleton.root].astype(np.float32)
         motion = positions - positions[:, skeleton.root : skeleton.root + 1]

@@ -31,6 +31,7 @@ from momu.features.skeletons import Skeleton, forward_kinematics
 
 __all__ = [
     "Camera",
+    "CameraConfig",
     "choose_keys",
     "beat_phase",
     "ease_keys",
@@ -47,9 +48,12 @@ _LIMB_SEGMENTS = frozenset(
 _FOOT_SEGMENTS = frozenset({"l_shin", "r_shin", "l_foot", "r_foot"})
 
 
-@dataclass(frozen=True)
-class Camera:
-    """Pinhole camera facing the dancer's rest orientation (looking along -Z from +Z).
+@dataclass
+class CameraConfig:
+    """Pinhole camera of 2D skeletons (``openpose14``), facing the dancer's rest orientation (looking
+    along -Z from +Z); the ``camera`` node of :class:`~momu.data.synth.dataset.SynthConfig`.
+
+    The dancer stands at the origin; a 1.7 m dancer at the default 5 m is about 370 px tall.
 
     Attributes:
         width, height: image size in pixels (OpenPose convention: origin top-left, v down).
@@ -63,6 +67,10 @@ class Camera:
     focal_px: float = 1100.0
     distance: float = 5.0
     height_m: float = 1.0
+
+
+Camera = CameraConfig
+"""The camera :func:`project` takes (the same class as :class:`CameraConfig`)."""
 
 
 def _mirror_key(key: Mapping[str, float]) -> dict[str, float]:
