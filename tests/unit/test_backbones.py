@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 import torch
 
@@ -11,15 +9,6 @@ from momu.backbones.blocks import MaskedGroupNorm, check_prefix_mask
 from momu.backbones.dit import DiT, DiTConfig
 from momu.backbones.unet1d import UNet1D, UNet1DConfig
 from momu.registry import BACKBONES
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _single_thread() -> Iterator[None]:
-    """Tiny models run fastest single-threaded on a shared 2-core machine."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def tiny_dit(**kw: object) -> DiT:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -12,15 +11,6 @@ import torch
 
 from momu.parts_io import CONFIG_FILE, WEIGHTS_FILE, load_part, read_part_config, save_part
 from momu.registry import registry_for
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _single_thread() -> Iterator[None]:
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
 
 # Small configs of every nn.Module part this area registers (other areas add theirs).
 PARTS: list[tuple[str, str, dict[str, Any]]] = [

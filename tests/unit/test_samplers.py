@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -14,15 +13,6 @@ from momu.registry import BACKBONES, LOSSES, SAMPLERS, SCHEDULERS
 from momu.samplers.base import guided_eps, lengths_to_mask
 from momu.samplers.inpainting import forecast_mask, inbetween_mask
 from momu.schedulers.diffusers_schedulers import NoiseScheduler
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _single_thread() -> Iterator[None]:
-    """Tiny models run fastest single-threaded on a shared 2-core machine."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def tiny_dit(in_ch: int = 4, cond_ch: int = 3, seed: int = 0) -> Any:

@@ -7,20 +7,10 @@ expected squared error is that of two independent N(0, 2.25) draws, 2 × 2.25 = 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 import torch
 
 from momu.registry import BACKBONES, LOSSES, SAMPLERS
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _single_thread() -> Iterator[None]:
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def pairs(n: int, g: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:

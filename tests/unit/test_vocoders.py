@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -15,14 +14,6 @@ from momu.registry import VOCODERS
 from momu.vocoders.bigvgan import BigVGAN, kaiser_sinc_filter1d, load_bigvgan_state
 
 SR = 16000
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _single_thread() -> Iterator[None]:
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def tiny_bigvgan_params(**kw: object) -> dict[str, object]:
