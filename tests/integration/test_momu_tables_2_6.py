@@ -222,3 +222,17 @@ def test_recipe_scripts_print_help(
             runpy.run_path(str(REPO / "recipes" / f"momu_table{n}.py"), run_name="__main__")
         assert exc.value.code == 0
         assert f"Table {n}" in capsys.readouterr().out
+
+
+def test_real_bhs_dance_without_audio_fails_before_training(tmp_path: Path) -> None:
+    """BHS Dance (d2m layout) ships MFCC features only: the row stops, naming the missing variant."""
+    from tests.fixtures import layouts
+
+    layouts.write_d2m(tmp_path / "d2m")
+    spec = table5_spec(CONFIGS / "momu.yaml", CONFIGS / "momu_tables.yaml")
+    cfg = resolve_row_configs(spec, parse_table_args(spec, ["--preset", "smoke", "--data", str(tmp_path)]))[
+        "ours"
+    ]
+    assert subset_config(cfg, "bhs").dataset.root == str(tmp_path.resolve() / "d2m")
+    with pytest.raises(ValueError, match="no raw audio.*not implemented"):
+        check_subsets(cfg, ["bhs"])

@@ -353,8 +353,7 @@ def check_subsets(cfg: DictConfig, subsets: Sequence[str], *, need_audio: bool =
         if need_audio and dataset[0].audio is None:
             raise ValueError(
                 f"subsets.{sid}: dataset {scfg.dataset.name!r} has no raw audio (BHS Dance ships MFCC "
-                f"features "
-                "only); MoMu's MFCC-conditioned variant without BiCoR-VAE (§5.2) is not implemented"
+                "features only); MoMu's MFCC-conditioned variant without BiCoR-VAE (§5.2) is not implemented"
             )
 
 
@@ -403,8 +402,6 @@ def _plot(ctx: RunContext, name: str, truth: Clip, music: Clip, motion: Clip) ->
 
 
 # ---------------------------------------------------------------------------------------- motion→music
-
-
 def _score_motion_to_music(
     ctx: RunContext,
     sid: str,
