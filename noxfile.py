@@ -115,10 +115,34 @@ def _reproduction_readme(table: str, result: dict, command: str) -> str:
             if ours is None or chance is None:
                 continue
             better = ours > chance if col["higher_is_better"] else ours < chance
-            verb = "beats" if better else "does not beat"
+            verb = "ties" if ours == chance else ("beats" if better else "does not beat")
             verdicts.append(f"{col['label']} {verb} shuffled ({ours:.3g} vs {chance:.3g})")
         lines.append(f"- {row['id']} {row['name']}: " + ("; ".join(verdicts) or "no comparable cells"))
+    lines += _reproduction_ordering(result)
     return "\n".join(lines) + "\n"
+
+
+def _reproduction_ordering(result: dict) -> list[str]:
+    """Per column, the share of row pairs our numbers order as the paper's do (tables with 2+ rows)."""
+    rows = [r for r in result["rows"] if r["paper"]]
+    if len(rows) < 2:
+        return []
+    lines = ["", "## Ordering of rows against the paper's", ""]
+    for col in result["columns"]:
+        key, sign = col["key"], 1.0 if col["higher_is_better"] else -1.0
+        cells = [(r["id"], r["metrics"].get(key), r["paper"].get(key)) for r in rows]
+        cells = [c for c in cells if c[1] is not None and c[2] is not None]
+        pairs = [(a, b) for i, a in enumerate(cells) for b in cells[i + 1 :] if a[2] != b[2]]
+        if not pairs:
+            continue
+        agree = sum((a[1] - b[1]) * (a[2] - b[2]) > 0 for a, b in pairs)
+        best_ours = max(cells, key=lambda c: sign * c[1])[0]
+        best_paper = max(cells, key=lambda c: sign * c[2])[0]
+        lines.append(
+            f"- {col['label']}: {agree}/{len(pairs)} row pairs ordered as in the paper; "
+            f"best row {best_ours} here, {best_paper} in the paper (ties count as disagreement)"
+        )
+    return lines
 
 
 @nox.session(python=PYTHON, default=False)
