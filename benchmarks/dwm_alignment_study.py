@@ -501,7 +501,7 @@ def report(r: dict) -> None:
             out(f"  {name:22s} BAS {pair(m['bas'])}\n")
     c = r["control_motion_beat_grid"]
     out("== 4. control: song beats replaced by a beat grid tracked on the motion\n")
-    out("  song bpm / grid bpm: " + " ".join(f"{x:.3f}" for x in c["grid_over_song_bpm"]) + "\n")
+    out("  grid bpm / song bpm: " + " ".join(f"{x:.3f}" for x in c["grid_over_song_bpm"]) + "\n")
     out(f"  BAS bailando root      {c['bas_bailando_root'][0]:.4f} vs {c['bas_bailando_root'][1]:.4f}\n")
     h = c["harmony_25fps"]
     out(
