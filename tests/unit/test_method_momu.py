@@ -361,3 +361,33 @@ def test_generate_cli_music2motion_and_errors(
         ]
     )
     assert code == 2 and "motion must be (T, 14, 2)" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- recipe specs
+def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
+    from momu.engine.table import TableArgs, resolve_row_configs
+    from momu.methods.momu_recipes import table7_spec, table10_spec
+
+    spec10 = table10_spec()
+    ten = resolve_row_configs(
+        spec10, TableArgs("smoke", "synth", Path("x"), ["Tc=0.1T"], [], False, "none", [])
+    )
+    assert (
+        ten["Tc=0.1T"].method.joint_sampler.gamma == 0.1 and ten["Tc=0.1T"].method.evaluation.task == "joint"
+    )
+    spec7 = table7_spec()
+    paper = resolve_row_configs(
+        spec7, TableArgs("paper", "synth", Path("x"), [r.id for r in spec7.rows], [], False, "none", [])
+    )
+    assert all(isinstance(build_component(cfg.method, "methods"), MoMu) for cfg in paper.values())
+    enc = paper["#7"].method.encoder
+    assert (enc.motion.latent_channels, enc.motion.base_channels, enc.motion.attention_layers) == (20, 192, 3)
+    assert list(enc.music.downsample_levels) == [0]  # Table 8: one downsampling layer
+    assert paper["#7"].method.discriminator_encoder.name == "mel_discriminator"
+    dit = paper["#7"].method.motion_backbone
+    assert (dit.hidden, dit.heads, dit.depth, dit.cond_embed_dim) == (576, 8, 4, 1024)  # Table 9
+    assert paper["#7"].method.train_diffusion.lr == 1.6e-5  # App. B.3
+    assert paper["#1"].method.encoder.motion_encoder.vae.base_channels == 192
+    assert paper["#3"].method.contrastive_loss is None
+    assert paper["#4"].method.music_backbone.name == "unet1d"
+    assert paper["#6"].method.evaluation.variable_length
