@@ -324,6 +324,13 @@ def run(root: Path) -> dict[str, object]:
     # stretched: frame k at k·(end − start)/T / 25 s, i.e. the T frames spread over end − start
     vs_s = pair_matrix(n, lambda i, j: vector_strength(mb[i] / dances[i].stretch, beats[j])[0])
     result["vector_strength"]["whole_stretched"] = gt_vs_shuffled(vs_s, diff_tempo)  # type: ignore[index]
+    # foot plants: minima of the σ = 2-frame smoothed foot speed
+    plants = [
+        (argrelextrema(gaussian_filter1d(speed(d.motion[:, FEET]), 2.0), np.less)[0] + 0.5) / d.fps
+        for d in dances
+    ]
+    vs_f = pair_matrix(n, lambda i, j: vector_strength(plants[i], beats[j])[0])
+    result["vector_strength"]["foot_plants"] = gt_vs_shuffled(vs_f, diff_tempo)  # type: ignore[index]
 
     # 3. metrics GT vs shuffled
     def cut(i: int, j: int, t: np.ndarray, motions: list[np.ndarray], fps: list[float]) -> np.ndarray:
@@ -488,6 +495,7 @@ def report(r: dict) -> None:
     out(f"  whole dance          {pair(v['whole'])}  chance ~{v['chance_whole']:.3f}\n")
     out(f"  whole, stretched     {pair(v['whole_stretched'])}\n")
     out(f"  10-s windows (mean)  {pair(v['windows_10s'])}\n")
+    out(f"  foot-speed minima    {pair(v['foot_plants'])}\n")
     for k, w in v["gt_windows"].items():
         out(f"    {k:10s} R@phase: " + " ".join(f"{a:.2f}@{b:+.2f}" for a, b in w) + "\n")
     out("== 3. metrics\n")
