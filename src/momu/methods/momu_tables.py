@@ -389,14 +389,24 @@ def _trained_momu(
     return model, dataset, data_key, truth
 
 
-def _plot(ctx: RunContext, name: str, truth: Clip, music: Clip, motion: Clip) -> None:
-    """A Figure 4/5-style beat plot of the first sample next to the results (main process only)."""
+def _plot(ctx: RunContext, name: str, clip: Clip, *, figure: int) -> None:
+    """MoMu Figure 4 (``figure=4``: generated music with the conditioning motion, poses at the
+    musical beats) or Figure 5 (``figure=5``: generated motion with its music, poses at the
+    kinematic beats) for one clip, written to ``<out>/<table>/<name>.png`` (main process only)."""
     if not ctx.accelerator.is_main_process:
         return
     try:
-        from momu.methods.momu_plot import beat_plot
+        from momu.render.beat_plot import clip_beat_figure
 
-        beat_plot(truth, music, motion, ctx.out_dir / f"{name}.png")
+        what = (
+            "generated music, conditioning motion" if figure == 4 else "generated motion, conditioning music"
+        )
+        clip_beat_figure(
+            ctx.out_dir / f"{name}.png",
+            clip,
+            title=f"MoMu Figure {figure}-style beat matching: {clip.id} ({what})",
+            strip_at="music" if figure == 4 else "motion",
+        )
     except Exception as exc:  # a plot must never fail a table
         log.warning("beat plot skipped: %s", exc)
 
@@ -443,7 +453,7 @@ def _score_motion_to_music(
         scores = METRICS.build("beat_scores", {"truncate": "shortest"})(shuf, truth)
         out[f"{sid}_f1_shuffled_cond"] = beat_percent(sid, scores)[f"{sid}_f1"]
         out[f"{sid}_onset_f1_shuffled_cond"] = music_onset_f1(shuf, truth)
-    _plot(ctx, f"{sid}_beats", truth[0], gen[0], truth[0])
+    _plot(ctx, f"{sid}_beats", gen[0], figure=4)  # gen[i]: generated audio, clip i's motion
     return out
 
 
@@ -607,7 +617,7 @@ def evaluate_music_to_motion(
                 scores = METRICS.build("kinematic_beat_scores", {})(shuf, truth)
                 out[f"{sid}_f1_shuffled_cond"] = beat_percent(sid, scores)[f"{sid}_f1"]
                 out[f"{sid}_onset_f1_shuffled_cond"] = onset_alignment(truth, shuf)
-            _plot(ctx, f"{sid}_beats", truth[0], truth[0], gen[0])
+            _plot(ctx, f"{sid}_beats", gen[0], figure=5)  # gen[i]: generated motion, clip i's music
     return out
 
 
