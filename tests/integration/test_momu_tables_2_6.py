@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import torch
 
 from momu.config import ConfigError
 from momu.engine.table import parse_table_args, resolve_row_configs, run_table
@@ -48,7 +47,6 @@ def _spec(name: str) -> Any:
 @pytest.fixture(scope="module")
 def smoke_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
     out = tmp_path_factory.mktemp("tables_2_6")
-    torch.set_num_threads(1)
     results = {}
     for name in ("momu_table2", "momu_table5", "momu_table6", "momu_table3", "momu_table4"):
         status = run_table(_spec(name), [*FLAGS, "--out", str(out), *SMALL])
