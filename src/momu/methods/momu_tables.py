@@ -559,7 +559,7 @@ def motion_extractor(ctx: RunContext, dataset: Any, data_key: Mapping[str, Any],
     }
     path = ctx.parts_dir / f"extractor-motion-{stage_key_hash(key)}.safetensors"
     if path.is_file():
-        ctx.trained[path.stem] = "reused"
+        ctx.trained.setdefault(path.stem, "reused")  # "trained" stays if this run trained it
     else:
         if ctx.accelerator.is_main_process:
             clips = [dataset[i] for i in select_split(dataset, "train")]
