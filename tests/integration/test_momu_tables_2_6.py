@@ -172,9 +172,9 @@ def test_subset_config_lengths_and_real_data(tmp_path: Path) -> None:
     cfg = resolve_row_configs(spec, parse_table_args(spec, ["--preset", "cpu"]))["ours"]
     fe50 = subset_config(cfg, "fe50")
     assert fe50.dataset.name == "synth_dance"
-    assert fe50.dataset.min_seconds == fe50.dataset.max_seconds == 12.0
-    assert fe50.method.evaluation.seconds == 12.0 and fe50.method.window_seconds == 12.0
-    assert fe50.method.window_hop_seconds == 6.0
+    assert fe50.dataset.min_seconds == fe50.dataset.max_seconds == 8.0
+    assert fe50.method.evaluation.seconds == 8.0 and fe50.method.window_seconds == 8.0
+    assert fe50.method.window_hop_seconds == 4.0
     smoke = resolve_row_configs(spec, parse_table_args(spec, ["--preset", "smoke"]))["ours"]
     assert subset_config(smoke, "fe25").method.evaluation.seconds == 2.0
     with pytest.raises(ConfigError, match="subsets.nope"):

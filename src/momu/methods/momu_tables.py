@@ -761,9 +761,8 @@ def _length_table(
         "encoder "
         "conditions θ_a and is trained end to end with it; the music VAE is the method's stage 1.",
         "Each length column is its own subset (trained and evaluated on clips of that length); the `cpu` "
-        "preset's "
-        "stand-ins are 6 s and 12 s clips (the paper's 25 s and 50 s, halved and doubled alike), `smoke` 2 "
-        "s and 3 s.",
+        "preset's stand-ins are 4 s and 8 s clips (the paper's 25 s and 50 s keep their 1 : 2 ratio), "
+        "`smoke` 2 s and 3 s.",
         "The paper's Table 4 baseline rows repeat Table 3's verbatim; they are reported as printed.",
     )
     return _spec(
