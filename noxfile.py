@@ -38,7 +38,8 @@ def tests(session: nox.Session) -> None:
     """Unit, property and integration tests, the example plugin's tests, and the smoke recipes."""
     _install(session, "test", "render", "video", plugin=True)
     workers = os.environ.get("MOMU_TEST_WORKERS", "2")
-    args = session.posargs or ["tests", f"{PLUGIN}/tests", "-n", workers, "--durations=15"]
+    # --timeout turns a hung test (a deadlocked process group, say) into a failure with a traceback.
+    args = session.posargs or ["tests", f"{PLUGIN}/tests", "-n", workers, "--durations=25", "--timeout=900"]
     session.run("pytest", *args, env=TEST_ENV)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import socket
 
@@ -57,6 +58,12 @@ def _worker(rank: int, world: int, port: int) -> None:
                 mean = p.detach().clone()
                 dist.all_reduce(mean)
                 torch.testing.assert_close(mean / world, p.detach(), atol=1e-6, rtol=0)
+        # Free the DDP reducers while the process group is alive: if they are only collected at
+        # interpreter exit, the reducer's destructor joins gloo's worker thread while holding the
+        # GIL the worker needs, and the process hangs (seen under pytest-xdist).
+        del vae, disc, opt_v, opt_d
+        gc.collect()
+        dist.barrier()
     finally:
         dist.destroy_process_group()
 
