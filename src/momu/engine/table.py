@@ -21,6 +21,7 @@ re-run) and an ``evaluate`` function — and calls :func:`run_table`. The runner
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import math
 import platform
@@ -327,6 +328,17 @@ def render_markdown(spec: TableSpec, result: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _finish(accelerator: Any) -> None:
+    """Release the prepared (DDP-wrapped) models while the process group is alive, then end.
+
+    A DDP reducer collected only at interpreter exit joins gloo's worker thread while holding the
+    GIL that thread needs, and the process hangs; freeing them first avoids it.
+    """
+    accelerator.free_memory()
+    gc.collect()
+    accelerator.end_training()
+
+
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
@@ -374,7 +386,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         calibration = spec.calibrate(ctx, first) if spec.calibrate is not None else {}
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
-        accelerator.end_training()
+        _finish(accelerator)
         return 143
     result = {
         "table": spec.name,
@@ -407,5 +419,5 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         atomic_write_text(out / "results.md", render_markdown(spec, result))
         log.info("%s: wrote %s", spec.name, out / "results.md")
     accelerator.wait_for_everyone()
-    accelerator.end_training()
+    _finish(accelerator)
     return 0
