@@ -85,6 +85,9 @@ MOMU_RECIPES = (
 """Every MoMu-Diffusion recipe, in the order `reproduce` runs them (Tables 5–6 reuse Table 2's model)."""
 
 
+_REPRODUCE_MARKER = "<!-- written by `nox -s reproduce`; a README without this line is kept -->"
+
+
 def _reproduction_readme(table: str, result: dict, command: str) -> str:
     """reproductions/<table>/README.md: how it was produced, cost, and how to compare it with the paper."""
     prov = result["provenance"]
@@ -178,5 +181,10 @@ def reproduce(session: nox.Session) -> None:
             shutil.copy2(plot, dst / f"beats-{plot.parent.name}.png")
         result = json.loads((src / "results.json").read_text())
         command = "python " + " ".join(args)
-        (dst / "README.md").write_text(_reproduction_readme(table, result, command))
+        text = _REPRODUCE_MARKER + "\n" + _reproduction_readme(table, result, command)
+        readme = dst / "README.md"
+        if readme.is_file() and not readme.read_text().startswith(_REPRODUCE_MARKER):
+            readme = dst / "REPRODUCE.md"  # keep a hand-written README; put the summary beside it
+            session.warn(f"{dst / 'README.md'} is hand-written: kept; summary in {readme}, check its numbers")
+        readme.write_text(text)
         session.log(f"{table}: {dst}")
