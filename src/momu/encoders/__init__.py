@@ -1,4 +1,3 @@
 """Built-in encoders; importing this package registers them in momu.registry.ENCODERS."""
-from momu.encoders import learnable_motion  # noqa: F401
-from momu.encoders import mfcc  # noqa: F401
-from momu.encoders import bicor_vae, directional_vector, discriminator, waveform  # noqa: F401
+
+from momu.encoders import bicor_vae, directional_vector, discriminator, learnable_motion, mfcc, waveform  # noqa: F401
