@@ -8,8 +8,8 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
 * ``smoke`` — every row end-to-end in seconds: a dozen 3 s clips, tiny VAEs and DiTs, a few
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
 * ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s), 4 s windows, small VAEs
-  (latent 16, no attention, latent rate 15.6 Hz, no GAN term) and DiTs (width 64, depth 2), 120 steps
-  per VAE stage and 300 diffusion steps per row, 25 DDIM steps.
+  (latent 16, no attention, latent rate 15.6 Hz, no GAN term) and DiTs (width 64, depth 2), 120
+  music-VAE, 600 motion-VAE and 900 diffusion steps per row, 25 DDIM steps.
 * ``paper`` — MoMu Tables 8–9 and App. A.2/B.3: Table 8 VAEs at the published size (latent 20,
   base width 192, 2 residual blocks, [1,2,4], 3 attention layers, kernel 5), Table 9 DiT (hidden
   576, 8 heads, 4 blocks, condition embedding 1024, kernel 5), AdamW 2e-4 for BiCoR-VAE and 1.6e-5
