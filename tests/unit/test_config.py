@@ -172,3 +172,23 @@ def test_written_files_get_default_permissions(tmp_path: Path) -> None:
     finally:
         os.umask(umask)
     assert path.stat().st_mode & 0o777 == 0o644
+
+
+def test_override_reaches_interpolations_and_mapping_with_name_replaces() -> None:
+    base = {
+        "backbone": {"name": "cfgtest_net_a", "depth": 4},
+        "method": {"name": "cfgtest_pipe", "backbone": "${backbone}"},
+    }
+    cfg = load_config(base, ["backbone=cfgtest_net_b"])
+    assert OmegaConf.to_container(cfg.method.backbone) == {"name": "cfgtest_net_b", "levels": 3}
+    cfg = load_config(base, ["backbone={name: cfgtest_net_b, levels: 7}"])
+    assert OmegaConf.to_container(cfg.backbone) == {"name": "cfgtest_net_b", "levels": 7}
+    cfg = load_config(base, ["backbone={width: 8}"])
+    assert OmegaConf.to_container(cfg.backbone) == {"name": "cfgtest_net_a", "depth": 4, "width": 8}
+
+
+def test_unparsable_override_value_is_a_config_error() -> None:
+    with pytest.raises(ConfigError, match="cannot parse value"):
+        apply_overrides({}, ["x={a: [1, 2"])
+    with pytest.raises(ConfigError, match="cannot resolve"):
+        load_config({"a": "${missing}"})

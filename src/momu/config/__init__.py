@@ -67,9 +67,12 @@ def _join(path: str, key: Any) -> str:
     return f"{path}.{key}" if path else str(key)
 
 
-def _plain(node: Any) -> Any:
+def _plain(node: Any, resolve: bool = True) -> Any:
     if isinstance(node, (DictConfig, ListConfig)):
-        return OmegaConf.to_container(node, resolve=True)
+        try:
+            return OmegaConf.to_container(node, resolve=resolve)
+        except OmegaConfBaseException as exc:
+            raise ConfigError(f"cannot resolve the config: {str(exc).splitlines()[0]}") from None
     return node
 
 
@@ -161,12 +164,16 @@ def _parse_override(text: str) -> tuple[str, Any]:
         raise ConfigError(f"override {text!r}: expected key=value")
     key, raw = text.split("=", 1)
     key = key.strip().lstrip("+")
-    try:
-        parsed: Any = OmegaConf.to_container(OmegaConf.from_dotlist([f"v={raw}"]))
+    try:  # interpolations (${...}) stay unresolved until the whole config is validated
+        parsed: Any = OmegaConf.to_container(OmegaConf.from_dotlist([f"v={raw}"]), resolve=False)
         value = parsed["v"]
-    except OmegaConfBaseException as exc:
-        raise ConfigError(f"override {text!r}: cannot parse value: {exc}") from None
+    except Exception as exc:  # YAML and OmegaConf grammar errors alike
+        raise ConfigError(f"override {text!r}: cannot parse value: {str(exc).splitlines()[0]}") from None
     return key, value
+
+
+def _is_bare_name(value: Any) -> bool:
+    return isinstance(value, str) and "${" not in value  # an interpolation is resolved later
 
 
 def _expand_bare_names(tree: Any) -> Any:
@@ -175,10 +182,10 @@ def _expand_bare_names(tree: Any) -> Any:
         out: dict[Any, Any] = {}
         for key, value in tree.items():
             found = component_kind(str(key))
-            if found is not None and not found[1] and isinstance(value, str):
+            if found is not None and not found[1] and _is_bare_name(value):
                 out[key] = {"name": value}
             elif found is not None and found[1] and isinstance(value, list):
-                out[key] = [{"name": v} if isinstance(v, str) else _expand_bare_names(v) for v in value]
+                out[key] = [{"name": v} if _is_bare_name(v) else _expand_bare_names(v) for v in value]
             else:
                 out[key] = _expand_bare_names(value)
         return out
@@ -188,18 +195,23 @@ def _expand_bare_names(tree: Any) -> Any:
 def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
     """Apply ``key=value`` dotlist overrides to an unvalidated config.
 
-    A value given to a component key replaces that whole node (``backbone=unet1d`` drops the
-    old node's params); a dotted key (``backbone.depth=4``) sets one param.
+    A value given to a component key replaces that whole node when it names a part
+    (``backbone=unet1d`` or ``backbone={name: unet1d, depth: 2}`` drop the old node's params);
+    a mapping without a name (``backbone={depth: 2}``) or a dotted key (``backbone.depth=4``)
+    sets params of the existing node. Interpolations (``${...}``) are resolved after all
+    overrides, so an override reaches every node that refers to the overridden one.
     """
-    tree = OmegaConf.create(_plain(cfg) if cfg is not None else {})
+    tree = OmegaConf.create(_plain(cfg, resolve=False) if cfg is not None else {})
     for text in overrides:
         key, value = _parse_override(text)
-        tree = OmegaConf.create(_expand_bare_names(_plain(tree)))
+        tree = OmegaConf.create(_expand_bare_names(_plain(tree, resolve=False)))
         leaf = key.rsplit(".", 1)[-1]
-        if component_kind(leaf) is not None and not isinstance(value, dict):
-            OmegaConf.update(tree, key, value, merge=False, force_add=True)
-        else:
-            OmegaConf.update(tree, key, value, merge=True, force_add=True)
+        names_part = not isinstance(value, dict) or "name" in value
+        replace = component_kind(leaf) is not None and names_part
+        try:
+            OmegaConf.update(tree, key, value, merge=not replace, force_add=True)
+        except OmegaConfBaseException as exc:
+            raise ConfigError(f"override {text!r}: {str(exc).splitlines()[0]}") from None
     return tree
 
 

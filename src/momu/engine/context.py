@@ -72,7 +72,7 @@ class RunContext:
         if weights.is_file():
             model.load_state_dict(load_file(str(weights)), strict=True)
             model.to(self.accelerator.device).eval()
-            self.trained[folder.name] = "reused"
+            self.trained.setdefault(folder.name, "reused")  # "trained" stays if this run trained it
             log.info("stage %s: reusing %s", name, folder)
             return model
         data = dataset() if callable(dataset) else dataset
