@@ -110,3 +110,10 @@ def test_bad_arguments_fail_before_training(
     err = capsys.readouterr().err.strip()
     assert err == f"toy_table: error: {message}"
     assert not (tmp_path / "toy_table").exists()
+
+
+def test_overrides_may_sit_between_flags() -> None:
+    from momu.engine.table import parse_table_args
+
+    args = parse_table_args(SPEC, ["method.width=3", "--preset", "smoke", "seed=2", "--rows", "#1"])
+    assert args.overrides == ["method.width=3", "seed=2"] and args.preset == "smoke" and args.rows == ["#1"]

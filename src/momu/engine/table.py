@@ -163,7 +163,7 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         help="experiment tracker (wandb is offline by default)",
     )
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for every row")
-    ns = parser.parse_args(argv)
+    ns = parser.parse_intermixed_args(argv)  # overrides may sit before or after the flags
     return TableArgs(
         preset=ns.preset,
         data=ns.data,
