@@ -277,3 +277,36 @@ def _init_linear(module: nn.Module) -> None:
 def scaled_init_std(dim: int) -> float:
     """``1/√dim``: the std used for learned embeddings (positions, null condition)."""
     return 1.0 / math.sqrt(dim)
+
+
+def condition_tokens(
+    embed: nn.Module,
+    null: nn.Parameter,
+    batch: int,
+    cond: Tensor | None,
+    cond_mask: Tensor | None,
+    drop_cond: Tensor | None,
+    ref: Tensor,
+) -> tuple[Tensor, Tensor]:
+    """Embedded condition tokens ``(B, Lc, H)`` and their mask ``(B, Lc)`` (MoMu Eq. 7's ∅).
+
+    Without a condition every item sees one learned null token; items flagged in ``drop_cond``
+    (classifier-free-guidance dropout) see the same null token in place of their condition, so
+    a dropped condition and no condition give identical outputs.
+    """
+    null_token = null.to(ref.dtype)
+    if cond is None:
+        return null_token.expand(batch, 1, -1), torch.ones(batch, 1, dtype=torch.bool, device=ref.device)
+    tokens = embed(cond.to(ref.dtype))
+    mask = (
+        cond_mask
+        if cond_mask is not None
+        else torch.ones(cond.shape[:2], dtype=torch.bool, device=ref.device)
+    )
+    if drop_cond is not None and bool(drop_cond.any()):
+        first = torch.zeros_like(mask)
+        first[:, 0] = True
+        drop = drop_cond[:, None]
+        tokens = torch.where(drop[..., None] & first[..., None], null_token, tokens)
+        mask = torch.where(drop, first, mask)
+    return tokens, mask

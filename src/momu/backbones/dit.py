@@ -32,6 +32,7 @@ from momu.backbones.blocks import (
     _init_linear,
     check_backbone_inputs,
     check_prefix_mask,
+    condition_tokens,
     scaled_init_std,
     sinusoidal_embedding,
 )
@@ -154,22 +155,7 @@ class DiT(nn.Module):
         """``(tokens (B, Lc, H), mask (B, Lc))``; dropped items get one learned null token."""
         if self.cond_embed is None or self.null_cond is None:
             return None, None
-        null = self.null_cond.to(ref.dtype)
-        if cond is None:
-            return null.expand(b, 1, -1), torch.ones(b, 1, dtype=torch.bool, device=ref.device)
-        tokens = self.cond_embed(cond.to(ref.dtype))
-        mask = (
-            cond_mask
-            if cond_mask is not None
-            else torch.ones(cond.shape[:2], dtype=torch.bool, device=ref.device)
-        )
-        if drop_cond is not None and bool(drop_cond.any()):
-            first = torch.zeros_like(mask)
-            first[:, 0] = True
-            drop = drop_cond[:, None]
-            tokens = torch.where(drop[..., None] & first[..., None], null, tokens)
-            mask = torch.where(drop, first, mask)
-        return tokens, mask
+        return condition_tokens(self.cond_embed, self.null_cond, b, cond, cond_mask, drop_cond, ref)
 
     # ------------------------------------------------------------------ forward
     def forward(

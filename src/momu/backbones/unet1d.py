@@ -28,6 +28,7 @@ from momu.backbones.blocks import (
     _init_linear,
     check_backbone_inputs,
     check_prefix_mask,
+    condition_tokens,
     scaled_init_std,
     sinusoidal_embedding,
 )
@@ -192,22 +193,7 @@ class UNet1D(nn.Module):
     ) -> tuple[Tensor | None, Tensor | None]:
         if self.cond_proj is None or self.null_cond is None:
             return None, None
-        null = self.null_cond.to(ref.dtype)
-        if cond is None:
-            return null.expand(b, 1, -1), torch.ones(b, 1, dtype=torch.bool, device=ref.device)
-        ctx = self.cond_proj(cond.to(ref.dtype))
-        mask = (
-            cond_mask
-            if cond_mask is not None
-            else torch.ones(cond.shape[:2], dtype=torch.bool, device=ref.device)
-        )
-        if drop_cond is not None and bool(drop_cond.any()):
-            first = torch.zeros_like(mask)
-            first[:, 0] = True
-            drop = drop_cond[:, None]
-            ctx = torch.where(drop[..., None] & first[..., None], null, ctx)
-            mask = torch.where(drop, first, mask)
-        return ctx, mask
+        return condition_tokens(self.cond_proj, self.null_cond, b, cond, cond_mask, drop_cond, ref)
 
     def _positions(
         self, level: int, frames: int, len_x: Tensor, ctx: Tensor | None, ctx_mask: Tensor | None, ref: Tensor
