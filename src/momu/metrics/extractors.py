@@ -48,7 +48,7 @@ from momu.data.types import Clip
 from momu.encoders.dstformer import DSTformer, DSTformerConfig
 from momu.features.audio import MoMuMelConfig, check_waveform, momu_mel
 from momu.io import atomic_path, read_json
-from momu.metrics.vggish import VGGish, VGGishConfig, load_vggish, vggish_examples
+from momu.metrics.vggish import VGGishConfig, load_vggish, vggish_examples
 
 __all__ = [
     "MotionClassifierConfig",
@@ -456,7 +456,38 @@ def _batched(n: int, size: int) -> list[slice]:
     return [slice(i, min(n, i + size)) for i in range(0, n, size)]
 
 
-class MotionExtractor:
+class _TrainedModelWrapper:
+    """A model in eval mode on ``device`` plus where its weights came from (for provenance)."""
+
+    kind: str
+
+    def __init__(
+        self,
+        model: nn.Module,
+        *,
+        checkpoint: str | Path | None = None,
+        sha256: str | None = None,
+        device: str = "cpu",
+        batch_size: int = 64,
+    ) -> None:
+        self.model: Any = model.to(device).eval()  # the subclass's model type
+        self.cfg: Any = model.cfg
+        self.checkpoint = None if checkpoint is None else str(checkpoint)
+        self.sha256 = sha256
+        self.device = torch.device(device)
+        self.batch_size = batch_size
+
+    def provenance(self) -> dict[str, Any]:
+        """The extractor's kind and config, and the checkpoint file and sha256 of its weights."""
+        return {
+            "kind": self.kind,
+            "config": dataclasses.asdict(self.cfg),
+            "checkpoint": self.checkpoint,
+            "sha256": self.sha256,
+        }
+
+
+class MotionExtractor(_TrainedModelWrapper):
     """A trained :class:`MotionClassifier` applied to clips (features and class probabilities).
 
     Attributes:
@@ -466,22 +497,6 @@ class MotionExtractor:
     """
 
     kind = "motion_classifier"
-
-    def __init__(
-        self,
-        model: MotionClassifier,
-        *,
-        checkpoint: str | Path | None = None,
-        sha256: str | None = None,
-        device: str = "cpu",
-        batch_size: int = 64,
-    ) -> None:
-        self.model = model.to(device).eval()
-        self.cfg = model.cfg
-        self.checkpoint = None if checkpoint is None else str(checkpoint)
-        self.sha256 = sha256
-        self.device = torch.device(device)
-        self.batch_size = batch_size
 
     @classmethod
     def load(cls, path: str | Path, *, device: str = "cpu", batch_size: int = 64) -> MotionExtractor:
@@ -537,14 +552,6 @@ class MotionExtractor:
         probs = self.clip_probabilities(clips)
         return [self.cfg.class_names[i] for i in probs.argmax(axis=1)]
 
-    def provenance(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "config": dataclasses.asdict(self.cfg),
-            "checkpoint": self.checkpoint,
-            "sha256": self.sha256,
-        }
-
 
 @runtime_checkable
 class AudioEmbedding(Protocol):
@@ -559,26 +566,10 @@ class AudioEmbedding(Protocol):
     def provenance(self) -> dict[str, Any]: ...
 
 
-class AudioClassifierEmbedding:
+class AudioClassifierEmbedding(_TrainedModelWrapper):
     """The trained :class:`AudioClassifier`'s embedding of each 0.96 s segment."""
 
     kind = "audio_classifier"
-
-    def __init__(
-        self,
-        model: AudioClassifier,
-        *,
-        checkpoint: str | Path | None = None,
-        sha256: str | None = None,
-        device: str = "cpu",
-        batch_size: int = 64,
-    ) -> None:
-        self.model = model.to(device).eval()
-        self.cfg = model.cfg
-        self.checkpoint = None if checkpoint is None else str(checkpoint)
-        self.sha256 = sha256
-        self.device = torch.device(device)
-        self.batch_size = batch_size
 
     @torch.no_grad()
     def frame_embeddings(self, clip: Clip) -> np.ndarray:
@@ -591,34 +582,11 @@ class AudioClassifierEmbedding:
         ]
         return torch.cat(out).numpy()
 
-    def provenance(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "config": dataclasses.asdict(self.cfg),
-            "checkpoint": self.checkpoint,
-            "sha256": self.sha256,
-        }
 
-
-class VGGishEmbedding:
+class VGGishEmbedding(_TrainedModelWrapper):
     """VGGish embeddings (user-provided local weights) of each 0.96 s example (MoMu App. B.4 / FAD)."""
 
     kind = "vggish"
-
-    def __init__(
-        self,
-        model: VGGish,
-        *,
-        checkpoint: str | Path | None = None,
-        sha256: str | None = None,
-        device: str = "cpu",
-        batch_size: int = 64,
-    ) -> None:
-        self.model = model.to(device).eval()
-        self.checkpoint = None if checkpoint is None else str(checkpoint)
-        self.sha256 = sha256
-        self.device = torch.device(device)
-        self.batch_size = batch_size
 
     @classmethod
     def load(
@@ -640,14 +608,6 @@ class VGGishEmbedding:
             for sl in _batched(len(examples), self.batch_size)
         ]
         return torch.cat(out).numpy()
-
-    def provenance(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "config": dataclasses.asdict(self.model.cfg),
-            "checkpoint": self.checkpoint,
-            "sha256": self.sha256,
-        }
 
 
 def load_extractor(path: str | Path, *, device: str = "cpu") -> MotionExtractor | AudioClassifierEmbedding:
