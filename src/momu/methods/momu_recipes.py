@@ -9,7 +9,8 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
 * ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s), 4 s windows, small VAEs
   (latent 16, no attention, latent rate 15.6 Hz, no GAN term) and DiTs (width 64, depth 2), 120
-  music-VAE, 600 motion-VAE and 900 diffusion steps per row, 25 DDIM steps.
+  music-VAE, 600 motion-VAE and 900 diffusion steps per row; θ_m with the frame-aligned condition
+  shortcut (``cond_add``, aligned positions); CFG sampling with 1000-step DDPM clipped to ±4.
 * ``paper`` — MoMu Tables 8–9 and App. A.2/B.3: Table 8 VAEs at the published size (latent 20,
   base width 192, 2 residual blocks, [1,2,4], 3 attention layers, kernel 5), Table 9 DiT (hidden
   576, 8 heads, 4 blocks, condition embedding 1024, kernel 5), AdamW 2e-4 for BiCoR-VAE and 1.6e-5
@@ -84,6 +85,7 @@ PRESETS: dict[str, list[str]] = {
         "method.music_backbone=dit",
         "method.motion_backbone=dit",
         "method.vocoder=griffin_lim",
+        "method.sampler.scheduler=ddim",  # MoMu §5.1: 50 DDIM steps (the cpu preset samples with DDPM)
         "method.sampler.num_inference_steps=50",
         "method.joint_sampler.num_inference_steps=50",
         "method.train_music_vae={steps: 200000, batch_size: 16, lr: 2.0e-4}",
