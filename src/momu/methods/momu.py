@@ -49,7 +49,7 @@ from momu.features.preprocess import Normalizer
 from momu.features.skeletons import get_skeleton
 from momu.io import read_json, write_json
 from momu.methods.momu_data import MoMuNormalizers, Rates, WindowDataset, select_split
-from momu.methods.momu_stages import DiffusionStage, MotionVAEStage, MusicVAEStage, stage_step
+from momu.methods.momu_stages import DiffusionStage, MotionVAEStage, stage_step, train_music_vae_stage
 from momu.parts_io import load_part, save_part
 from momu.registry import BACKBONES, METHODS
 from momu.samplers.base import lengths_to_mask
@@ -293,19 +293,7 @@ class MoMu:
             return cache["w"]
 
         # Stage 1: music VAE (+ GAN), Eq. 10.
-        disc = None
-        if vae.music_input == "mel" and c.discriminator_encoder is not None:
-            disc = build_component(c.discriminator_encoder, "encoders")
-        gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
-        stage1 = MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
-        ctx.stage(
-            "music_vae",
-            keys["music_vae"],
-            stage1,
-            windows,
-            stage_step,
-            dataclasses.replace(c.train_music_vae, seed=seed),
-        )
+        train_music_vae_stage(ctx, vae, c, keys["music_vae"], windows, seed)
 
         # Stage 2: motion VAE + rhythmic contrastive loss, music VAE frozen, Eq. 11.
         vae.freeze_music(True)

@@ -46,7 +46,7 @@ from momu.features.preprocess import Normalizer
 from momu.losses.diffusion import DiffusionLoss
 from momu.methods.momu import MoMu, _item_noise, _pad
 from momu.methods.momu_data import MoMuNormalizers, Rates, WindowDataset, select_split
-from momu.methods.momu_stages import MusicVAEStage, stage_step
+from momu.methods.momu_stages import stage_step, train_music_vae_stage
 
 __all__ = [
     "learnable_encoder_node",
@@ -257,19 +257,7 @@ def fit_learnable_motion_to_music(
         return cache["w"]
 
     # Stage 1 (Eq. 10): the momu method's music VAE stage, same key.
-    disc = None
-    if vae.music_input == "mel" and c.discriminator_encoder is not None:
-        disc = build_component(c.discriminator_encoder, "encoders")
-    gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
-    stage1 = MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
-    ctx.stage(
-        "music_vae",
-        keys["music_vae"],
-        stage1,
-        windows,
-        stage_step,
-        dataclasses.replace(c.train_music_vae, seed=seed),
-    )
+    train_music_vae_stage(ctx, vae, c, keys["music_vae"], windows, seed)
     vae = vae.to("cpu").eval()
     vae.freeze_music(True)
 

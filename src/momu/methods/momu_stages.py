@@ -25,6 +25,7 @@ returning ``(loss, logs)``.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,7 @@ from momu.encoders.bicor_vae import BiCoRVAE, stage2_loss
 from momu.encoders.vae import SequenceVAE
 from momu.losses.diffusion import DiffusionLoss
 
-__all__ = ["MusicVAEStage", "MotionVAEStage", "DiffusionStage", "stage_step"]
+__all__ = ["MusicVAEStage", "MotionVAEStage", "DiffusionStage", "stage_step", "train_music_vae_stage"]
 
 
 def stage_step(model: nn.Module, batch: Any) -> tuple[torch.Tensor, dict[str, float]]:
@@ -172,3 +173,22 @@ class DiffusionStage(nn.Module):
             "motion2music": float(loss_a.detach()),
             "music2motion": float(loss_m.detach()),
         }
+
+
+def train_music_vae_stage(ctx: Any, vae: Any, c: Any, key: Any, windows: Any, seed: int) -> None:
+    """Train (or reuse) stage 1, MoMu App. A.2 Eq. 10: the music VAE with the GAN term.
+
+    Shared by the ``momu`` method and the Table 3–4 learnable-motion model, which use the same
+    stage key so a run that trains both trains stage 1 once. ``c`` is the method config
+    (``discriminator_encoder``, ``gan_loss``, ``vae_loss``, ``train_music_vae``), ``windows`` the
+    training-window dataset (or a callable building it), ``ctx`` the run's
+    :class:`~momu.engine.context.RunContext`.
+    """
+    from momu.config import build_component
+
+    disc = None
+    if vae.music_input == "mel" and c.discriminator_encoder is not None:
+        disc = build_component(c.discriminator_encoder, "encoders")
+    gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
+    stage = MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
+    ctx.stage("music_vae", key, stage, windows, stage_step, dataclasses.replace(c.train_music_vae, seed=seed))
