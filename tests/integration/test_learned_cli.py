@@ -3,24 +3,14 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import torch
 
 from momu.cli import main
 from momu.config import build_component
 from momu.data.synth import SynthConfig, SynthDance
 from momu.metrics.extractors import file_sha256
-
-
-@pytest.fixture(autouse=True)
-def _one_thread() -> Iterator[None]:
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def test_extractor_train_info_and_metric(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

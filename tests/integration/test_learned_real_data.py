@@ -2,25 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-import pytest
-import torch
 
 from momu.data.types import Clip
 from momu.encoders.dstformer import DSTformerConfig
 from momu.metrics.extractors import MotionClassifierConfig, MotionExtractor, TrainConfig, train_extractor
 from momu.registry import DATASETS, METRICS
-
-
-@pytest.fixture(autouse=True)
-def _one_thread() -> Iterator[None]:
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 def test_motion_classifier_and_metrics_on_real_mocap(shared_data: Path, tmp_path: Path) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -13,16 +12,6 @@ from momu.config import build_component
 from momu.encoders.dstformer import DSTformer, DSTformerConfig, sinusoidal_embedding
 from momu.encoders.learnable_motion import LearnableMotionConfig, LearnableMotionEncoder
 from momu.registry import ENCODERS
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _one_thread() -> Iterator[None]:
-    """Small tensors run fastest on one thread on a shared 2-core machine; restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
 
 TINY = DSTformerConfig(num_joints=5, dim_in=2, dim_feat=8, dim_rep=6, depth=2, num_heads=2)
 

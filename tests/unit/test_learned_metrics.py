@@ -6,7 +6,6 @@ The extractors here are small untrained networks: the metric arithmetic does not
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -27,16 +26,6 @@ from momu.metrics.extractors import (
     save_extractor,
 )
 from momu.registry import METRICS
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _one_thread() -> Iterator[None]:
-    """Small tensors run fastest on one thread on a shared 2-core machine; restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
 
 SR = 16000
 
