@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,7 +12,7 @@ import torch
 from accelerate import Accelerator
 from accelerate.utils import DataLoaderConfiguration, GradientAccumulationPlugin
 
-__all__ = ["RunConfig", "make_accelerator", "TRACKERS"]
+__all__ = ["RunConfig", "make_accelerator", "finish_accelerator", "TRACKERS"]
 
 TRACKERS = ("wandb", "none")
 
@@ -66,3 +67,16 @@ def make_accelerator(
             cfg.project, config=tracked_config, init_kwargs={"wandb": {"name": run_name}}
         )
     return accelerator
+
+
+def finish_accelerator(accelerator: Accelerator) -> None:
+    """End a run cleanly: every process waits, frees its prepared models, then ends training.
+
+    A DDP reducer or gloo work object destroyed only at interpreter exit can abort the process
+    (``terminate called without an active exception``) or hang it; releasing them while the
+    process group is alive, then destroying the group, avoids both.
+    """
+    accelerator.wait_for_everyone()
+    accelerator.free_memory()
+    gc.collect()
+    accelerator.end_training()

@@ -21,7 +21,6 @@ re-run) and an ``evaluate`` function — and calls :func:`run_table`. The runner
 from __future__ import annotations
 
 import argparse
-import gc
 import logging
 import math
 import platform
@@ -39,7 +38,7 @@ import torch
 from omegaconf import DictConfig
 
 from momu.config import ConfigError, load_config, save_config, to_container
-from momu.engine.accelerate_setup import TRACKERS, RunConfig, make_accelerator
+from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
 from momu.engine.trainer import Preempted
 from momu.io import atomic_write_text, write_json
@@ -328,17 +327,6 @@ def render_markdown(spec: TableSpec, result: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _finish(accelerator: Any) -> None:
-    """Release the prepared (DDP-wrapped) models while the process group is alive, then end.
-
-    A DDP reducer collected only at interpreter exit joins gloo's worker thread while holding the
-    GIL that thread needs, and the process hangs; freeing them first avoids it.
-    """
-    accelerator.free_memory()
-    gc.collect()
-    accelerator.end_training()
-
-
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
@@ -386,7 +374,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         calibration = spec.calibrate(ctx, first) if spec.calibrate is not None else {}
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
-        _finish(accelerator)
+        finish_accelerator(accelerator)
         return 143
     result = {
         "table": spec.name,
@@ -419,5 +407,5 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         atomic_write_text(out / "results.md", render_markdown(spec, result))
         log.info("%s: wrote %s", spec.name, out / "results.md")
     accelerator.wait_for_everyone()
-    _finish(accelerator)
+    finish_accelerator(accelerator)
     return 0

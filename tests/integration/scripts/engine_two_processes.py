@@ -9,7 +9,14 @@ import torch
 from torch import nn
 from torch.utils.data import TensorDataset
 
-from momu.engine import RunConfig, TrainConfig, make_accelerator, map_gathered, train_stage
+from momu.engine import (
+    RunConfig,
+    TrainConfig,
+    finish_accelerator,
+    make_accelerator,
+    map_gathered,
+    train_stage,
+)
 from momu.io import write_json
 
 
@@ -42,6 +49,7 @@ def main(out: Path) -> None:
                 "weight": model.weight.detach().flatten().tolist(),
             },
         )
+    finish_accelerator(acc)
 
 
 if __name__ == "__main__":
