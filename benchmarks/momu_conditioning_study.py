@@ -10,6 +10,7 @@ then generates motion for the held-out ``test`` clips twice: conditioned on the 
 * ``bas`` — Beat Align Score (bailando variant, MoFusion Eq. 10, σ = 3 frames at the decoded rate),
   music beats from clip i's audio;
 * ``f1`` — ``kinematic_beat_scores`` F1 (MoMu App. B.5, one-second bins, percent);
+* ``f1_025s`` — the same with 0.25-s bins (``bin_seconds``; one-second bins saturate on this music);
 * ``onset_f1`` — kinematic beats vs music onsets within ±50 ms (percent,
   :func:`momu.methods.momu_eval.onset_alignment`).
 
@@ -80,8 +81,13 @@ def alignment(truth: Sequence[Clip], motions: Sequence[np.ndarray], fps: float) 
     clips = [dataclasses.replace(t, motion=m, fps=fps, meta={}) for t, m in zip(truth, motions)]
     bas = METRICS.build("bas", {})(clips)["bas"]
     f1 = METRICS.build("kinematic_beat_scores", {})(clips, list(truth))
-    f1_value = next(v for k, v in f1.items() if k.endswith("f1"))
-    return {"bas": float(bas), "f1": 100.0 * float(f1_value), "onset_f1": onset_alignment(truth, clips)}
+    f1_fine = METRICS.build("kinematic_beat_scores", {"bin_seconds": 0.25})(clips, list(truth))
+    return {
+        "bas": float(bas),
+        "f1": 100.0 * float(f1["kinematic_beat_scores.f1"]),
+        "f1_025s": 100.0 * float(f1_fine["kinematic_beat_scores.f1"]),
+        "onset_f1": onset_alignment(truth, clips),
+    }
 
 
 def spread(motions: Sequence[np.ndarray]) -> float:

@@ -118,11 +118,21 @@ def test_align_frames_drops_evenly() -> None:
     assert align_frames(x, 10, dim=1) is x
 
 
-def test_align_frames_repeats_only_in_nearest_mode() -> None:
+def test_align_frames_upsampling_modes() -> None:
     x = torch.arange(4).reshape(1, 4)
     assert align_frames(x, 8, dim=1, mode="nearest").tolist() == [[0, 1, 1, 2, 2, 3, 3, 3]]
-    with pytest.raises(ValueError, match="align='nearest'"):
+    with pytest.raises(ValueError, match="align='linear'"):
         align_frames(x, 8, dim=1, mode="drop")
+    # linear (default): output frame i at input position i * 4 / 8, the last one held
+    linear = align_frames(x.float(), 8, dim=1)
+    assert linear.tolist() == [[0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.0]]
+    # constant-speed motion keeps a constant speed (no repeated frame = no one-frame stop)
+    ramp = torch.arange(60, dtype=torch.float32).reshape(1, 60, 1, 1).expand(1, 60, 2, 2)
+    speed = align_frames(ramp, 62, dim=1).diff(dim=1)[0, :-1]
+    assert torch.allclose(speed, torch.full_like(speed, 60 / 62), atol=1e-5)
+    # fewer frames: every mode drops the same frames as the paper
+    y = torch.arange(10.0).reshape(1, 10)
+    assert align_frames(y, 5, dim=1).tolist() == align_frames(y, 5, dim=1, mode="drop").tolist()
 
 
 def test_motion_is_aligned_to_the_music_latent_length() -> None:

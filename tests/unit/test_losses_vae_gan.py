@@ -59,6 +59,28 @@ def test_reconstruction_mask_ignores_masked_elements() -> None:
     assert reconstruction_error(rec, torch.zeros(1, 2), "l1", "mean", mask).item() == pytest.approx(1.0)
 
 
+def test_velocity_term_by_hand() -> None:
+    # A step 0, 0, 1, 1 decoded as a ramp 0, .5, .5, 1: L1 position error mean .25, velocity
+    # (diffs 0, 1, 0 vs .5, 0, .5) error mean 2/3. Time is dim 1 of (B, T, C).
+    target = torch.tensor([0.0, 0.0, 1.0, 1.0]).view(1, 4, 1)
+    ramp = torch.tensor([0.0, 0.5, 0.5, 1.0]).view(1, 4, 1)
+    loss = VAELoss(VAELossConfig(kl_weight=0.0, velocity_weight=3.0))
+    out = loss(ramp, target, standard_normal(), time_dim=1)
+    assert out["reconstruction"].item() == pytest.approx(0.25)
+    assert out["velocity"].item() == pytest.approx(2 / 3)
+    assert out["loss"].item() == pytest.approx(0.25 + 3.0 * 2 / 3)
+    # a constant offset has no velocity error; without a time axis there is no velocity term
+    assert loss(target + 1.0, target, standard_normal(), time_dim=1)["velocity"].item() == 0.0
+    assert "velocity" not in loss(ramp, target, standard_normal())
+    # masked frames: only the pair (frame 0, frame 1) is valid -> |0.5 - 0| = 0.5
+    mask = torch.tensor([True, True, False, False]).view(1, 4, 1)
+    assert loss(ramp, target, standard_normal(), mask=mask, time_dim=1)["velocity"].item() == pytest.approx(
+        0.5
+    )
+    with pytest.raises(ValueError, match="velocity_weight"):
+        VAELoss(VAELossConfig(velocity_weight=-1.0))
+
+
 def test_vae_loss_errors() -> None:
     with pytest.raises(ValueError, match="shapes differ"):
         VAELoss()(torch.zeros(1, 2), torch.zeros(1, 3), standard_normal())

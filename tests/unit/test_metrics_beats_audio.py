@@ -22,6 +22,7 @@ from momu.metrics import (
 )
 from momu.metrics.harmony import saliency_mask, visual_saliency_star
 from momu.metrics.loris_scores import aggregate_beat_scores, second_bins
+from momu.registry import METRICS
 
 SR = 22050
 
@@ -55,6 +56,30 @@ def test_second_bins_truncate_and_collapse() -> None:
     assert second_bins(np.array([]), 2.0).tolist() == [0, 0]
     with pytest.raises(ValueError, match="past"):
         second_bins(np.array([5.0]), 3.0)
+
+
+def test_second_bins_of_a_finer_width() -> None:
+    # 0.25-s bins over 1.0 s: 0.1 -> 0, 0.3 -> 1, 0.49 -> 1, 0.99 -> 3; ceil(1.0 / 0.25) = 4 bins
+    assert second_bins(np.array([0.1, 0.3, 0.49, 0.99]), 1.0, 0.25).tolist() == [1, 1, 0, 1]
+    # 1 s is the reference's bins exactly; 4.0 s of 0.25-s bins is 16 bins (no float round-up to 17)
+    times = np.array([0.5, 0.99, 1.01, 2.5])
+    assert second_bins(times, 3.2, 1.0).tolist() == second_bins(times, 3.2).tolist()
+    assert second_bins(np.array([3.99]), 4.0, 0.25).size == 16
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="bin_seconds"):
+            second_bins(times, 3.2, bad)
+
+
+def test_beat_score_metrics_take_the_bin_width() -> None:
+    # onsets at 0.1 s and 1.1 s vs 0.4 s and 1.4 s: same one-second bins (F1 1), different 0.25-s bins (F1 0)
+    gt, gen = clicks([0.1, 1.1], 2.0), clicks([0.4, 1.4], 2.0)
+    one_second = beat_scores([gen, gen], [gt, gt], SR)
+    quarter = beat_scores([gen, gen], [gt, gt], SR, bin_seconds=0.25)
+    assert one_second["f1"] == pytest.approx(1.0) and quarter["f1"] == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="bin_seconds"):
+        METRICS.build("beat_scores", {"bin_seconds": 0})
+    with pytest.raises(ValueError, match="bin_seconds"):
+        METRICS.build("kinematic_beat_scores", {"bin_seconds": -0.5})
 
 
 def test_pair_beat_scores_by_hand() -> None:

@@ -39,7 +39,7 @@ __all__ = [
     "stage2_loss",
 ]
 
-ALIGN_MODES = ("drop", "nearest")
+ALIGN_MODES = ("drop", "linear", "nearest")
 
 
 class KeypointVAE(SequenceVAE):
@@ -96,15 +96,22 @@ class MelVAE(SequenceVAE):
         return y[..., :length]
 
 
-def align_frames(x: torch.Tensor, num_frames: int, *, dim: int = 1, mode: str = "nearest") -> torch.Tensor:
+def align_frames(x: torch.Tensor, num_frames: int, *, dim: int = 1, mode: str = "linear") -> torch.Tensor:
     """Evenly drop frames of ``x`` along ``dim`` so it has ``num_frames`` (MoMu §3.2).
 
-    ``mode="drop"`` is the paper's operation (:func:`momu.features.preprocess.drop_frames_evenly`)
-    and needs ``num_frames <= x.shape[dim]``. ``mode="nearest"`` takes the same evenly spaced
-    frames (:func:`momu.features.preprocess.even_frame_indices`, output frame ``i`` = the input frame
-    nearest in time) and therefore also allows ``num_frames`` above the length, repeating evenly
-    spaced frames — for motion sampled slower than the music latent rate requires (e.g. 60 fps
-    motion against 62.5 mel frames/s). Both agree whenever frames are dropped.
+    Every mode drops frames exactly like the paper when ``num_frames <= x.shape[dim]``
+    (:func:`momu.features.preprocess.drop_frames_evenly`). They differ only when the motion is
+    sampled slower than the music latent rate requires (e.g. 60 fps motion against 62.5 mel
+    frames/s), which the paper never meets:
+
+    * ``"linear"`` (default): output frame ``i`` (at time ``i / num_frames`` of the clip) is the
+      linear interpolation of the input at position ``i · T / num_frames``;
+    * ``"nearest"``: the input frame nearest in time
+      (:func:`momu.features.preprocess.even_frame_indices`), i.e. evenly spaced frames repeat. A
+      repeated frame is a one-frame stop: MoMu's kinematic amplitude (Eq. 2) fires right after it,
+      so nearest-frame upsampling plants a spurious kinematic beat every ``T / (num_frames − T)``
+      frames (every 0.5 s for 60 → 62.5 fps) in the training targets;
+    * ``"drop"``: the paper only; an error when frames would have to be added.
     """
     from momu.features.preprocess import drop_frames_evenly, even_frame_indices
 
@@ -120,11 +127,19 @@ def align_frames(x: torch.Tensor, num_frames: int, *, dim: int = 1, mode: str = 
     if mode == "drop":
         raise ValueError(
             f"cannot align {length} motion frames to {num_frames} by dropping frames (MoMu §3.2 needs "
-            f"at least as many motion frames as the music requires); use align='nearest' to repeat "
+            f"at least as many motion frames as the music requires); use align='linear' to interpolate "
             f"frames, raise the motion frame rate, or crop the music"
         )
-    idx = torch.as_tensor(even_frame_indices(length, num_frames), device=x.device)
-    return x.index_select(dim, idx)
+    if mode == "nearest":
+        idx = torch.as_tensor(even_frame_indices(length, num_frames), device=x.device)
+        return x.index_select(dim, idx)
+    pos = torch.arange(num_frames, dtype=torch.float64, device=x.device) * (length / num_frames)
+    lo = pos.floor().long().clamp(max=length - 1)
+    hi = (lo + 1).clamp(max=length - 1)
+    shape = [1] * x.dim()
+    shape[dim] = num_frames
+    w = (pos - lo.to(torch.float64)).to(x.dtype if x.is_floating_point() else torch.float32).view(shape)
+    return x.index_select(dim, lo) * (1 - w) + x.index_select(dim, hi) * w
 
 
 @dataclass
@@ -137,9 +152,10 @@ class BiCoRVAEConfig:
         mel_bins: mel channels (MoMu App. B.2: 80).
         motion: the motion VAE (Table 8).
         music: the mel VAE (Table 8).
-        align: frame alignment mode, ``"nearest"`` (default: drops evenly like the paper when motion
-            has enough frames, repeats evenly otherwise) or ``"drop"`` (the paper only; errors when
-            motion is too short). See :func:`align_frames`.
+        align: frame alignment mode, ``"linear"`` (default: drops evenly like the paper when motion
+            has enough frames, interpolates linearly otherwise), ``"nearest"`` (repeats frames
+            instead) or ``"drop"`` (the paper only; errors when motion is too short). See
+            :func:`align_frames`.
         motion_encoder: optional component node naming a registered motion VAE that replaces the
             keypoint VAE (``{name: directional_vector, ...}``, MoMu Table 7 #1); ``motion`` is then unused.
         music_encoder: optional component node naming a registered music VAE that replaces the mel
@@ -151,7 +167,7 @@ class BiCoRVAEConfig:
     mel_bins: int = 80
     motion: VAE1dConfig = field(default_factory=VAE1dConfig)
     music: VAE1dConfig = field(default_factory=VAE1dConfig)
-    align: str = "nearest"
+    align: str = "linear"
     motion_encoder: Any = None
     music_encoder: Any = None
 
@@ -179,7 +195,7 @@ class BiCoRVAE(nn.Module):
         self,
         motion_vae: SequenceVAE,
         music_vae: SequenceVAE,
-        align: str = "nearest",
+        align: str = "linear",
     ) -> None:
         super().__init__()
         if motion_vae.modality != "motion":
@@ -334,7 +350,7 @@ def stage2_loss(
         z_music = model.encode_music(music).mode()
     aligned = model.align_motion(motion, z_music.shape[1])
     out: VAEOutput = model.motion_vae(aligned, generator=generator)
-    terms = vae_loss(out.reconstruction, out.target, out.posterior)
+    terms = vae_loss(out.reconstruction, out.target, out.posterior, time_dim=1)  # (B, T, ...) motion
     amplitude = contrastive.amplitude(aligned, z_music.shape[1])
     contrast = contrastive(z_music, out.posterior.mean, amplitude, generator=generator)
     return {

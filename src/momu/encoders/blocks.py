@@ -27,6 +27,8 @@ __all__ = [
     "TransformerLayer",
     "SpatialTransformer1d",
     "MiddleBlock1d",
+    "PADDING_MODES",
+    "set_padding_mode",
 ]
 
 
@@ -84,6 +86,23 @@ class ResBlock1d(nn.Module):
         h = self.conv1(F.silu(self.norm1(x)))
         h = self.conv2(self.dropout(F.silu(self.norm2(h))))
         return self.skip(x) + h
+
+
+PADDING_MODES = ("zeros", "replicate", "reflect")
+
+
+def set_padding_mode(module: nn.Module, mode: str) -> nn.Module:
+    """Make every padded ``Conv1d`` inside ``module`` pad with ``mode`` (``zeros``/``replicate``/``reflect``).
+
+    Zero padding (the latent-diffusion default) makes a sequence's first and last frames see a fake
+    silence; ``replicate`` continues the edge frame instead. Weights and state-dict keys are unchanged.
+    """
+    if mode not in PADDING_MODES:
+        raise ValueError(f"padding_mode: expected one of {PADDING_MODES}, got {mode!r}")
+    for conv in module.modules():
+        if isinstance(conv, nn.Conv1d) and any(int(p) > 0 for p in conv.padding):  # type: ignore[union-attr]
+            conv.padding_mode = mode  # type: ignore[assignment]  # checked above
+    return module
 
 
 class Downsample1d(nn.Module):

@@ -41,7 +41,15 @@ import torch.nn.functional as F
 from einops import rearrange
 from torch import nn
 
-from momu.encoders.blocks import Downsample1d, MiddleBlock1d, ResBlock1d, Upsample1d, group_norm
+from momu.encoders.blocks import (
+    PADDING_MODES,
+    Downsample1d,
+    MiddleBlock1d,
+    ResBlock1d,
+    Upsample1d,
+    group_norm,
+    set_padding_mode,
+)
 
 __all__ = [
     "VAE1dConfig",
@@ -77,6 +85,9 @@ class VAE1dConfig:
         kernel_size: Conv1d kernel size (Table 8: 5; odd).
         dropout: dropout inside residual blocks and transformer feed-forwards.
         norm_groups: maximum GroupNorm group count (the largest divisor of the width is used).
+        padding_mode: padding of every convolution: ``"zeros"`` (latent-diffusion autoencoders,
+            the default) or ``"replicate"``/``"reflect"`` (no zero-padding edge artefacts in the
+            first and last decoded frames; :func:`momu.encoders.blocks.set_padding_mode`).
     """
 
     latent_channels: int = 20
@@ -90,6 +101,7 @@ class VAE1dConfig:
     kernel_size: int = 5
     dropout: float = 0.0
     norm_groups: int = 32
+    padding_mode: str = "zeros"
 
 
 def paper_vae_config(**overrides: object) -> VAE1dConfig:
@@ -122,6 +134,8 @@ def check_vae_config(cfg: VAE1dConfig, where: str = "vae") -> None:
         raise bad("kernel_size", "must be a positive odd integer")
     if not 0.0 <= cfg.dropout < 1.0:
         raise bad("dropout", "must be in [0, 1)")
+    if cfg.padding_mode not in PADDING_MODES:
+        raise bad("padding_mode", f"must be one of {PADDING_MODES}")
     top = cfg.base_channels * cfg.channel_mult[-1]
     if cfg.attention_layers > 0 and top % cfg.attention_heads != 0:
         raise bad("attention_heads", f"must divide the middle-block width {top}")
@@ -209,6 +223,7 @@ class Encoder1d(nn.Module):
         )
         self.norm_out = group_norm(ch, cfg.norm_groups)
         self.conv_out = nn.Conv1d(ch, 2 * cfg.latent_channels, k, padding=pad)
+        set_padding_mode(self, cfg.padding_mode)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = self.conv_in(x)
@@ -242,6 +257,7 @@ class Decoder1d(nn.Module):
             self.levels.append(nn.Sequential(*blocks))
         self.norm_out = group_norm(ch, cfg.norm_groups)
         self.conv_out = nn.Conv1d(ch, out_channels, k, padding=pad)
+        set_padding_mode(self, cfg.padding_mode)
 
     def forward(self, z: torch.Tensor) -> torch.Tensor:
         h = self.mid(self.conv_in(z))

@@ -11,6 +11,12 @@ Reductions (``reduction``):
   (lambda4 = 1 for the contrastive term, Eq. 11) meaningful on sequences of any length.
 * ``"sum"``: both summed over an item's elements and averaged over the batch (the latent-diffusion
   autoencoder convention).
+
+Velocity term (``velocity_weight``, momu's option, 0 in the paper preset): the same error on first
+differences along the time axis, for branches whose caller names that axis (the motion VAE, stage 2).
+Position errors barely grow when a decoder smooths a sharp start of a movement over a few frames,
+but that smoothing erases the kinematic beats (MoMu Eq. 2 fires on sudden changes of velocity);
+the velocity error does grow. MoFusion's kinematic losses (§3.4) penalise velocities the same way.
 """
 
 from __future__ import annotations
@@ -35,11 +41,13 @@ class VAELossConfig:
     kl_weight: lambda1 (stage 1, Eq. 10) = lambda3 (stage 2, Eq. 11) = 1e-5 (MoMu App. A.2).
     reconstruction: ``"l1"`` or ``"mse"``.
     reduction: ``"mean"`` or ``"sum"`` (see the module docstring).
+    velocity_weight: weight of the velocity term (see the module docstring; 0 = MoMu's loss).
     """
 
     kl_weight: float = 1e-5
     reconstruction: str = "l1"
     reduction: str = "mean"
+    velocity_weight: float = 0.0
 
 
 def reconstruction_error(
@@ -86,6 +94,8 @@ class VAELoss(nn.Module):
             raise ValueError(f"vae loss reconstruction must be one of {_KINDS}, got {cfg.reconstruction!r}")
         if cfg.reduction not in _REDUCTIONS:
             raise ValueError(f"vae loss reduction must be one of {_REDUCTIONS}, got {cfg.reduction!r}")
+        if cfg.velocity_weight < 0:
+            raise ValueError(f"vae loss velocity_weight must be >= 0, got {cfg.velocity_weight}")
         self.cfg = cfg
 
     def kl(self, posterior: DiagonalGaussian, mask: torch.Tensor | None = None) -> torch.Tensor:
@@ -107,18 +117,41 @@ class VAELoss(nn.Module):
         *,
         mask: torch.Tensor | None = None,
         latent_mask: torch.Tensor | None = None,
+        time_dim: int | None = None,
     ) -> dict[str, torch.Tensor]:
         """``{"loss", "reconstruction", "kl"}`` (``kl`` unweighted; ``loss`` = recon + kl_weight * kl).
+
+        With ``velocity_weight > 0`` and a ``time_dim``, also ``"velocity"`` (unweighted) and
+        ``loss`` += velocity_weight * velocity.
 
         Args:
             reconstruction, target: the VAE output and its target (:class:`momu.encoders.vae.VAEOutput`).
             posterior: ``q(z|x)``.
             mask: optional reconstruction mask broadcastable to ``target`` (True = valid).
             latent_mask: optional ``(B, T_z)`` mask of valid latent frames for the KL.
+            time_dim: the time axis of ``target`` (the velocity term needs it; without it there is none).
         """
-        rec = reconstruction_error(reconstruction, target, self.cfg.reconstruction, self.cfg.reduction, mask)
+        cfg = self.cfg
+        rec = reconstruction_error(reconstruction, target, cfg.reconstruction, cfg.reduction, mask)
         kl = self.kl(posterior, latent_mask)
-        return {"loss": rec + self.cfg.kl_weight * kl, "reconstruction": rec, "kl": kl}
+        out = {"loss": rec + cfg.kl_weight * kl, "reconstruction": rec, "kl": kl}
+        if cfg.velocity_weight > 0 and time_dim is not None:
+            vel_mask = None
+            if mask is not None:
+                valid = torch.broadcast_to(mask.bool(), target.shape)
+                vel_mask = valid.narrow(time_dim, 1, valid.shape[time_dim] - 1) & valid.narrow(
+                    time_dim, 0, valid.shape[time_dim] - 1
+                )
+            velocity = reconstruction_error(
+                reconstruction.diff(dim=time_dim),
+                target.diff(dim=time_dim),
+                cfg.reconstruction,
+                cfg.reduction,
+                vel_mask,
+            )
+            out["velocity"] = velocity
+            out["loss"] = out["loss"] + cfg.velocity_weight * velocity
+        return out
 
 
 @LOSSES.register("vae", config=VAELossConfig)

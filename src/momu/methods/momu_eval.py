@@ -57,6 +57,7 @@ __all__ = [
     "derangement",
     "eval_lengths",
     "ensure_extractors",
+    "beat_metric",
     "pair_f1",
     "beat_onset_f1",
     "onset_alignment",
@@ -119,7 +120,14 @@ def ensure_extractors(
     return load_extractor(paths["motion"]), load_extractor(paths["audio"])
 
 
-def pair_f1(music: Sequence[Clip], motion: Sequence[Clip], *, music_is_reference: bool) -> dict[str, float]:
+def beat_metric(name: str, bin_seconds: float, **params: Any) -> Any:
+    """The registered ``beat_scores`` / ``kinematic_beat_scores`` metric with bins of ``bin_seconds``."""
+    return METRICS.build(name, {"bin_seconds": float(bin_seconds), **params})
+
+
+def pair_f1(
+    music: Sequence[Clip], motion: Sequence[Clip], *, music_is_reference: bool, bin_seconds: float = 1.0
+) -> dict[str, float]:
     """Beat scores between music onset bins and motion kinematic-beat bins, clip by clip.
 
     ``music_is_reference=True`` is ``kinematic_beat_scores`` (MoMu App. B.5: motion beats scored
@@ -129,8 +137,8 @@ def pair_f1(music: Sequence[Clip], motion: Sequence[Clip], *, music_is_reference
     for a, m in zip(music, motion):
         if a.audio is None or m.motion is None:
             raise ValueError("pair_f1: clips need audio (music side) and motion (motion side)")
-        music_bins = onset_beat_bins(a.audio, int(a.sample_rate or 0))
-        motion_bins = kinematic_beat_bins(m.motion, m.fps)
+        music_bins = onset_beat_bins(a.audio, int(a.sample_rate or 0), bin_seconds=bin_seconds)
+        motion_bins = kinematic_beat_bins(m.motion, m.fps, bin_seconds)
         ref, syn = (music_bins, motion_bins) if music_is_reference else (motion_bins, music_bins)
         cover, hit = pair_beat_scores(ref, syn, truncate="shortest")
         covers.append(cover)
@@ -199,8 +207,12 @@ def score_clips(
     *,
     joint: bool,
     fad_reference: Sequence[Clip] | None = None,
+    bin_seconds: float = 1.0,
 ) -> dict[str, float]:
-    """The four Table 7 columns (+ BCS/BHS) for generated music and motion against ``truth``."""
+    """The four Table 7 columns (+ BCS/BHS) for generated music and motion against ``truth``.
+
+    ``bin_seconds``: bin width of the F1 columns (MoMu's 1 s by default).
+    """
     motion_ext, audio_ext = extractors
     ref = list(fad_reference) if fad_reference is not None else list(truth)
     out = {
@@ -210,12 +222,16 @@ def score_clips(
         ),
     }
     if joint:
-        out.update(_beats("music", pair_f1(gen_music, gen_motion, music_is_reference=False)))
-        out.update(_beats("motion", pair_f1(gen_music, gen_motion, music_is_reference=True)))
+        out.update(
+            _beats("music", pair_f1(gen_music, gen_motion, music_is_reference=False, bin_seconds=bin_seconds))
+        )
+        out.update(
+            _beats("motion", pair_f1(gen_music, gen_motion, music_is_reference=True, bin_seconds=bin_seconds))
+        )
         out["motion_onset_f1"] = onset_alignment(gen_music, gen_motion)
     else:
-        out.update(_beats("music", METRICS.build("beat_scores", {})(gen_music, truth)))
-        out.update(_beats("motion", METRICS.build("kinematic_beat_scores", {})(gen_motion, truth)))
+        out.update(_beats("music", beat_metric("beat_scores", bin_seconds)(gen_music, truth)))
+        out.update(_beats("motion", beat_metric("kinematic_beat_scores", bin_seconds)(gen_motion, truth)))
         out["motion_onset_f1"] = onset_alignment(truth, gen_motion)
     return out
 
@@ -288,14 +304,15 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, floa
         _clip(t, "/gen", audio=r["audio"], sample_rate=rates.sample_rate) for t, r in zip(truth, results)
     ]
     gen_motion = [_clip(t, "/gen", motion=r["motion"], fps=rates.motion_fps) for t, r in zip(truth, results)]
-    metrics = score_clips(gen_music, gen_motion, truth, extractors, joint=joint)
+    bins = float(ev.beat_bin_seconds)
+    metrics = score_clips(gen_music, gen_motion, truth, extractors, joint=joint, bin_seconds=bins)
     if not joint and ev.shuffled_condition:
         shuffled = [
             _clip(t, "/shuf", motion=r["motion_shuffled"], fps=rates.motion_fps)
             for t, r in zip(truth, results)
         ]
         metrics["motion_f1_shuffled_cond"] = _beats(
-            "m", METRICS.build("kinematic_beat_scores", {})(shuffled, truth)
+            "m", beat_metric("kinematic_beat_scores", bins)(shuffled, truth)
         )["m_f1"]
         metrics["motion_onset_f1_shuffled_cond"] = onset_alignment(truth, shuffled)
     _maybe_plot(ctx, folder, truth[0], gen_music[0], gen_motion[0], joint)
@@ -317,13 +334,14 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig) -> dict[str, dict[str, floa
         _clip(truth[i], "/shuf", motion=truth[perm[i]].motion, audio=truth[perm[i]].audio)
         for i in range(len(truth))
     ]
-    gt = score_clips(others, others, truth, extractors, joint=False)
-    gt.update({k: v for k, v in _beats("music", METRICS.build("beat_scores", {})(truth, truth)).items()})
-    gt.update(_beats("motion", METRICS.build("kinematic_beat_scores", {})(truth, truth)))
+    bins = float(ev.beat_bin_seconds)
+    gt = score_clips(others, others, truth, extractors, joint=False, bin_seconds=bins)
+    gt.update(_beats("music", beat_metric("beat_scores", bins)(truth, truth)))
+    gt.update(_beats("motion", beat_metric("kinematic_beat_scores", bins)(truth, truth)))
     gt["motion_onset_f1"] = onset_alignment(truth, truth)
     shuf = {"music_fad": gt["music_fad"], "motion_fid": gt["motion_fid"]}
-    shuf.update(_beats("music", METRICS.build("beat_scores", {})(shuffled, truth)))
-    shuf.update(_beats("motion", METRICS.build("kinematic_beat_scores", {})(shuffled, truth)))
+    shuf.update(_beats("music", beat_metric("beat_scores", bins)(shuffled, truth)))
+    shuf.update(_beats("motion", beat_metric("kinematic_beat_scores", bins)(shuffled, truth)))
     shuf["motion_onset_f1"] = onset_alignment(truth, shuffled)
     return {"ground truth": gt, "ground truth, music and motion shuffled": shuf}
 

@@ -126,7 +126,7 @@ class MotionVAEStage(nn.Module):
         with torch.no_grad():
             length = self.vae.encode_music(music).shape[1]
         out = self.vae.motion_vae(self.vae.align_motion(motion, length))
-        terms = self.vae_loss(out.reconstruction, out.target, out.posterior)
+        terms = self.vae_loss(out.reconstruction, out.target, out.posterior, time_dim=1)  # (B, T, ...)
         return _with_every_parameter(self, terms["loss"]), {
             "reconstruction": float(terms["reconstruction"].detach()),
             "kl": float(terms["kl"].detach()),

@@ -49,7 +49,7 @@ from momu.engine.table import Column, PaperRow, Row, TableSpec
 from momu.engine.trainer import TrainConfig
 from momu.methods.momu import MoMu, MoMuModel
 from momu.methods.momu_data import eval_crops, select_split
-from momu.methods.momu_eval import _clip, beat_onset_f1, derangement, onset_alignment
+from momu.methods.momu_eval import _clip, beat_metric, beat_onset_f1, derangement, onset_alignment
 from momu.methods.momu_learnable import LearnableMotionToMusic, fit_learnable_motion_to_music
 from momu.methods.momu_recipes import BASE_CONFIG
 from momu.methods.momu_recipes import PRESETS as MOMU_PRESETS
@@ -446,11 +446,11 @@ def _score_motion_to_music(
     )
     sr = int(model.rates.sample_rate)
     gen = [_clip(t, "/gen", audio=r["audio"], sample_rate=sr) for t, r in zip(truth, results)]
-    out = beat_percent(sid, METRICS.build("beat_scores", {})(gen, truth))
+    out = beat_percent(sid, beat_metric("beat_scores", ev.beat_bin_seconds)(gen, truth))
     out[f"{sid}_onset_f1"] = music_onset_f1(gen, truth)
     if shuffled_cond:  # music generated from clip π(i)'s motion, scored against clip i's music
         shuf = [_clip(t, "/shuf", audio=r["shuffled"], sample_rate=sr) for t, r in zip(truth, results)]
-        scores = METRICS.build("beat_scores", {"truncate": "shortest"})(shuf, truth)
+        scores = beat_metric("beat_scores", ev.beat_bin_seconds, truncate="shortest")(shuf, truth)
         out[f"{sid}_f1_shuffled_cond"] = beat_percent(sid, scores)[f"{sid}_f1"]
         out[f"{sid}_onset_f1_shuffled_cond"] = music_onset_f1(shuf, truth)
     _plot(ctx, f"{sid}_beats", gen[0], figure=4)  # gen[i]: generated audio, clip i's motion
@@ -611,10 +611,12 @@ def evaluate_music_to_motion(
             motion_ext = motion_extractor(sctx, dataset, data_key, ev, seed)
             out.update(_quality(motion_ext, gen, truth, sid, ev))
         else:
-            out.update(beat_percent(sid, METRICS.build("kinematic_beat_scores", {})(gen, truth)))
+            out.update(
+                beat_percent(sid, beat_metric("kinematic_beat_scores", ev.beat_bin_seconds)(gen, truth))
+            )
             out[f"{sid}_onset_f1"] = onset_alignment(truth, gen)
             if shuf is not None:
-                scores = METRICS.build("kinematic_beat_scores", {})(shuf, truth)
+                scores = beat_metric("kinematic_beat_scores", ev.beat_bin_seconds)(shuf, truth)
                 out[f"{sid}_f1_shuffled_cond"] = beat_percent(sid, scores)[f"{sid}_f1"]
                 out[f"{sid}_onset_f1_shuffled_cond"] = onset_alignment(truth, shuf)
             _plot(ctx, f"{sid}_beats", gen[0], figure=5)  # gen[i]: generated motion, clip i's music
@@ -652,16 +654,22 @@ def calibrate_tables(
             for i in range(len(truth))
         ]
         if kind == "music":
-            gt.update(beat_percent(sid, METRICS.build("beat_scores", {})(truth, truth)))
+            gt.update(beat_percent(sid, beat_metric("beat_scores", ev.beat_bin_seconds)(truth, truth)))
             gt[f"{sid}_onset_f1"] = music_onset_f1(truth, truth)
             shuffled.update(
-                beat_percent(sid, METRICS.build("beat_scores", {"truncate": "shortest"})(moved, truth))
+                beat_percent(
+                    sid, beat_metric("beat_scores", ev.beat_bin_seconds, truncate="shortest")(moved, truth)
+                )
             )
             shuffled[f"{sid}_onset_f1"] = music_onset_f1(moved, truth)
         elif kind == "motion_beats":
-            gt.update(beat_percent(sid, METRICS.build("kinematic_beat_scores", {})(truth, truth)))
+            gt.update(
+                beat_percent(sid, beat_metric("kinematic_beat_scores", ev.beat_bin_seconds)(truth, truth))
+            )
             gt[f"{sid}_onset_f1"] = onset_alignment(truth, truth)
-            shuffled.update(beat_percent(sid, METRICS.build("kinematic_beat_scores", {})(moved, truth)))
+            shuffled.update(
+                beat_percent(sid, beat_metric("kinematic_beat_scores", ev.beat_bin_seconds)(moved, truth))
+            )
             shuffled[f"{sid}_onset_f1"] = onset_alignment(truth, moved)
         else:
             data_key = to_container(scfg.dataset)

@@ -34,6 +34,7 @@ from momu.metrics.base import MetricResult
 from momu.metrics.loris_scores import (
     LORIS_SR,
     aggregate_beat_scores,
+    check_bin_seconds,
     onset_beat_bins,
     pair_beat_scores,
     second_bins,
@@ -99,10 +100,15 @@ def kinematic_beat_frames(
     return np.asarray(peaks, dtype=np.int64)
 
 
-def kinematic_beat_bins(motion: np.ndarray, fps: float, **kwargs: object) -> np.ndarray:
-    """One-second kinematic-beat vector of a motion: ``ceil(T / fps)`` bins (see the module doc)."""
+def kinematic_beat_bins(
+    motion: np.ndarray, fps: float, bin_seconds: float = 1.0, **kwargs: object
+) -> np.ndarray:
+    """One-second kinematic-beat vector of a motion: ``ceil(T / fps)`` bins (see the module doc).
+
+    ``bin_seconds`` other than 1 gives bins of that width (:func:`~momu.metrics.loris_scores.second_bins`).
+    """
     frames = kinematic_beat_frames(motion, fps, **kwargs)  # type: ignore[arg-type]
-    return second_bins(frames / float(fps), np.asarray(motion).shape[0] / float(fps))
+    return second_bins(frames / float(fps), np.asarray(motion).shape[0] / float(fps), bin_seconds)
 
 
 def kinematic_beat_scores(
@@ -112,6 +118,7 @@ def kinematic_beat_scores(
     sr: int | Sequence[int],
     *,
     truncate: str = "shortest",
+    bin_seconds: float = 1.0,
     **kwargs: object,
 ) -> dict[str, float]:
     """Music→motion BCS/CSD/BHS/HSD/F1 (MoMu App. B.5): generated motions vs ground-truth music.
@@ -121,6 +128,7 @@ def kinematic_beat_scores(
         music: the ground-truth music waveforms paired by position; ``sr``: their sample rate(s).
         truncate: ``"shortest"`` (default) or ``"reference"`` (LORIS's rule), see
             :func:`~momu.metrics.loris_scores.pair_beat_scores`.
+        bin_seconds: bin width (1 s in MoMu / LORIS).
         kwargs: options of :func:`kinematic_beat_frames`.
 
     Returns:
@@ -135,8 +143,8 @@ def kinematic_beat_scores(
         raise ValueError("kinematic_beat_scores: one fps and one sample rate per pair (or one for all)")
     covers, hits = [], []
     for i in range(n):
-        motion_bins = kinematic_beat_bins(motions[i], fps_list[i], **kwargs)
-        music_bins = onset_beat_bins(music[i], sr_list[i])
+        motion_bins = kinematic_beat_bins(motions[i], fps_list[i], bin_seconds, **kwargs)
+        music_bins = onset_beat_bins(music[i], sr_list[i], bin_seconds=bin_seconds)
         try:
             cover, hit = pair_beat_scores(music_bins, motion_bins, truncate=truncate)
         except ValueError as exc:
@@ -156,6 +164,7 @@ class KinematicBeatScoresConfig:
         truncate: ``"shortest"`` or ``"reference"``.
         music_from: ``"reference"`` — the ground-truth music of the paired reference clip (MoMu B.5);
             ``"generated"`` — the generated clip's own audio.
+        bin_seconds: bin width in seconds (1 = MoMu's / LORIS's one-second bins).
     """
 
     bins: int = 8
@@ -164,6 +173,7 @@ class KinematicBeatScoresConfig:
     delta: float = 0.2
     truncate: str = "shortest"
     music_from: str = "reference"
+    bin_seconds: float = 1.0
 
 
 class KinematicBeatScoresMetric(ClipMetric):
@@ -189,12 +199,13 @@ class KinematicBeatScoresMetric(ClipMetric):
             motion_bins = kinematic_beat_bins(
                 clip_motion(g, self.name),
                 g.fps,
+                cfg.bin_seconds,
                 bins=cfg.bins,
                 plane=tuple(cfg.plane),
                 window=cfg.window,
                 delta=cfg.delta,
             )
-            music_bins = onset_beat_bins(*clip_audio(m, self.name))
+            music_bins = onset_beat_bins(*clip_audio(m, self.name), bin_seconds=cfg.bin_seconds)
             try:
                 cover, hit = pair_beat_scores(music_bins, motion_bins, truncate=cfg.truncate)
             except ValueError as exc:
@@ -208,6 +219,7 @@ class KinematicBeatScoresMetric(ClipMetric):
 @METRICS.register("kinematic_beat_scores", config=KinematicBeatScoresConfig)
 def build_kinematic_beat_scores(cfg: KinematicBeatScoresConfig) -> KinematicBeatScoresMetric:
     """``kinematic_beat_scores`` (MoMu App. B.5; METRICS.md §3.1)."""
+    check_bin_seconds(cfg.bin_seconds)
     return KinematicBeatScoresMetric(
         cfg, name="kinematic_beat_scores", needs_reference=True, spec="METRICS.md §3.1; MoMu B.5, Eq. 1-2"
     )

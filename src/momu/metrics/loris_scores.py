@@ -42,6 +42,7 @@ __all__ = [
     "ONSET_PARAMS",
     "onset_times",
     "second_bins",
+    "check_bin_seconds",
     "onset_beat_bins",
     "pair_beat_scores",
     "aggregate_beat_scores",
@@ -82,30 +83,48 @@ def onset_times(audio: np.ndarray, sr: int, *, variant: Variant = "loris") -> np
     return _detect(audio, sr, variant)[0]
 
 
-def second_bins(times: np.ndarray, duration: float) -> np.ndarray:
-    """One-second beat vector: ``ceil(duration)`` int bins, ``bin[trunc(t)] = 1`` for each time ``t``.
+def second_bins(times: np.ndarray, duration: float, bin_seconds: float = 1.0) -> np.ndarray:
+    """Beat vector: ``ceil(duration / w)`` int bins, ``bin[trunc(t / w)] = 1`` for each time ``t``.
+
+    ``w = bin_seconds`` is 1 s in the reference (one-second bins); a finer ``w`` is momu's option for
+    data whose music has an onset in every second (every pair would then match every bin).
 
     Args:
         times: event times in seconds (>= 0).
         duration: length of the signal in seconds (``len(y)/sr`` in the reference); events at or past
-            ``ceil(duration)`` seconds are an error.
+            ``ceil(duration / w) * w`` seconds are an error.
+        bin_seconds: bin width ``w`` in seconds (> 0).
     """
     t = as_times(times, "times")
     if not duration >= 0 or not math.isfinite(duration):
         raise ValueError(f"duration: must be a finite number of seconds >= 0, got {duration!r}")
-    n = int(np.ceil(duration))
+    w = check_bin_seconds(bin_seconds)
+    n = int(np.ceil(duration / w - 1e-9)) if w != 1.0 else int(np.ceil(duration))
     bins = np.zeros(n, dtype=np.int64)
-    idx = np.trunc(t).astype(np.int64)
+    idx = np.trunc(t / w).astype(np.int64) if w != 1.0 else np.trunc(t).astype(np.int64)
     if idx.size and idx.max() >= n:
-        raise ValueError(f"times: an event at {t.max():.3f} s lies past the signal's {n} one-second bins")
+        raise ValueError(f"times: an event at {t.max():.3f} s lies past the signal's {n} bins of {w:g} s")
     bins[idx] = 1
     return bins
 
 
-def onset_beat_bins(audio: np.ndarray, sr: int, *, variant: Variant = "loris") -> np.ndarray:
-    """The reference's ``beat_detect``: one-second onset bins of a waveform (``ceil(len(y)/22050)``)."""
+def check_bin_seconds(bin_seconds: float) -> float:
+    """``bin_seconds`` as a float, or a ValueError naming it when it is not a finite number > 0."""
+    w = float(bin_seconds)
+    if not (w > 0 and math.isfinite(w)):
+        raise ValueError(f"bin_seconds: must be a finite number of seconds > 0, got {bin_seconds!r}")
+    return w
+
+
+def onset_beat_bins(
+    audio: np.ndarray, sr: int, *, variant: Variant = "loris", bin_seconds: float = 1.0
+) -> np.ndarray:
+    """The reference's ``beat_detect``: one-second onset bins of a waveform (``ceil(len(y)/22050)``).
+
+    ``bin_seconds`` other than 1 gives bins of that width (see :func:`second_bins`).
+    """
     times, duration = _detect(audio, sr, variant)
-    return second_bins(times, duration)
+    return second_bins(times, duration, bin_seconds)
 
 
 def pair_beat_scores(
@@ -190,6 +209,7 @@ def beat_scores(
     reference_sr: int | Sequence[int] | None = None,
     variant: Variant = "loris",
     truncate: str = "reference",
+    bin_seconds: float = 1.0,
 ) -> dict[str, float]:
     """BCS, CSD, BHS, HSD and F1 of generated vs ground-truth music (MoMu App. B.4; LORIS).
 
@@ -200,6 +220,7 @@ def beat_scores(
         reference_sr: sample rate(s) of ``reference`` (default: ``sr``).
         variant: ``"loris"`` (default; MoMu) or ``"cdcd"``.
         truncate: see :func:`pair_beat_scores`.
+        bin_seconds: bin width (1 s in the reference; see :func:`second_bins`).
 
     Returns:
         ``{"bcs", "csd", "bhs", "hsd", "f1", "n"}`` as fractions in [0, 1] (``cdcd``: bcs, bhs, n).
@@ -210,8 +231,8 @@ def beat_scores(
     ref_sr = gen_sr if reference_sr is None else _rates(reference_sr, len(reference), "reference_sr")
     covers, hits = [], []
     for i, (gen, ref) in enumerate(zip(generated, reference)):
-        gt_bins = onset_beat_bins(ref, ref_sr[i], variant=variant)
-        syn_bins = onset_beat_bins(gen, gen_sr[i], variant=variant)
+        gt_bins = onset_beat_bins(ref, ref_sr[i], variant=variant, bin_seconds=bin_seconds)
+        syn_bins = onset_beat_bins(gen, gen_sr[i], variant=variant, bin_seconds=bin_seconds)
         try:
             cover, hit = pair_beat_scores(gt_bins, syn_bins, variant=variant, truncate=truncate)
         except ValueError as exc:
@@ -237,10 +258,12 @@ class BeatScoresConfig:
     Attributes:
         variant: ``"loris"`` (MoMu / LORIS) or ``"cdcd"``.
         truncate: ``"reference"`` (LORIS rule) or ``"shortest"``.
+        bin_seconds: bin width in seconds (1 = the reference's one-second bins).
     """
 
     variant: str = "loris"
     truncate: str = "reference"
+    bin_seconds: float = 1.0
 
 
 class BeatScoresMetric(ClipMetric):
@@ -250,17 +273,20 @@ class BeatScoresMetric(ClipMetric):
         cfg: BeatScoresConfig = self.cfg
         gen = self._require(generated)
         ref = check_pairs(gen, reference, self.name)
+        variant: Variant = cfg.variant  # type: ignore[assignment]  # checked by build_beat_scores
         covers, hits = [], []
         for g, r in zip(gen, ref):
-            gt_bins = onset_beat_bins(*clip_audio(r, self.name), variant=cfg.variant)  # type: ignore[arg-type]
-            syn_bins = onset_beat_bins(*clip_audio(g, self.name), variant=cfg.variant)  # type: ignore[arg-type]
+            gt_bins = onset_beat_bins(*clip_audio(r, self.name), variant=variant, bin_seconds=cfg.bin_seconds)
+            syn_bins = onset_beat_bins(
+                *clip_audio(g, self.name), variant=variant, bin_seconds=cfg.bin_seconds
+            )
             try:
-                cover, hit = pair_beat_scores(gt_bins, syn_bins, variant=cfg.variant, truncate=cfg.truncate)  # type: ignore[arg-type]
+                cover, hit = pair_beat_scores(gt_bins, syn_bins, variant=variant, truncate=cfg.truncate)
             except ValueError as exc:
                 raise type(exc)(f"{self.name}: clip {g.id!r}: {exc}") from None
             covers.append(cover)
             hits.append(hit)
-        scores = aggregate_beat_scores(covers, hits, variant=cfg.variant)  # type: ignore[arg-type]
+        scores = aggregate_beat_scores(covers, hits, variant=variant)
         return {f"{self.name}.{k}": v for k, v in scores.items() if k != "n"}
 
 
@@ -268,4 +294,5 @@ class BeatScoresMetric(ClipMetric):
 def build_beat_scores(cfg: BeatScoresConfig) -> BeatScoresMetric:
     """``beat_scores``: BCS/CSD/BHS/HSD/F1 (METRICS.md §1.8, MoMu App. B.4)."""
     _variant(cfg.variant)
+    check_bin_seconds(cfg.bin_seconds)
     return BeatScoresMetric(cfg, name="beat_scores", needs_reference=True, spec="METRICS.md §1.8; MoMu B.4")
