@@ -7,14 +7,17 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
 
 * ``smoke`` — every row end-to-end in seconds: a dozen 3 s clips, tiny VAEs and DiTs, a few
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
-* ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s), 4 s windows, small VAEs
-  (latent 16, no attention, latent rate 15.6 Hz, no GAN term) and DiTs (width 64, depth 2), 120
-  music-VAE, 600 motion-VAE and 900 diffusion steps per row; θ_m with the frame-aligned condition
-  shortcut (``cond_add``, aligned positions); CFG sampling with 1000-step DDPM clipped to ±4.
+* ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s, moves starting sharply on the
+  beat), 4 s windows, small VAEs (latent 16, no attention, latent rate 15.6 Hz, replicate padding,
+  no GAN term; sum-reduced reconstruction with a velocity term for the motion VAE) and DiTs (width
+  64, depth 2), 120 music-VAE, 1200 motion-VAE and 1500 diffusion steps per row; θ_m with the
+  frame-aligned condition shortcut (``cond_add``, aligned positions); CFG sampling with 1000-step
+  DDPM clipped to ±4; F1 columns in 0.25-s beat bins (one-second bins saturate on this music).
 * ``paper`` — MoMu Tables 8–9 and App. A.2/B.3: Table 8 VAEs at the published size (latent 20,
   base width 192, 2 residual blocks, [1,2,4], 3 attention layers, kernel 5), Table 9 DiT (hidden
   576, 8 heads, 4 blocks, condition embedding 1024, kernel 5), AdamW 2e-4 for BiCoR-VAE and 1.6e-5
-  with 10 000 warm-up steps for the denoisers, 10–30 s windows; the epoch counts (300 / 200) become
+  with 10 000 warm-up steps for the denoisers, 10–30 s windows, MoMu's VAE loss (no velocity term),
+  one-second beat bins; the epoch counts (300 / 200) become
   step counts that assume the AIST++ scale (set ``method.train_*.steps`` for another dataset).
 """
 
@@ -85,6 +88,7 @@ PRESETS: dict[str, list[str]] = {
         "method.music_backbone=dit",
         "method.motion_backbone=dit",
         "method.vocoder=griffin_lim",
+        "method.vae_loss.velocity_weight=0.0",  # MoMu Eq. 10-11: reconstruction + KL only
         "method.sampler.scheduler=ddim",  # MoMu §5.1: 50 DDIM steps (the cpu preset samples with DDPM)
         "method.sampler.num_inference_steps=50",
         "method.joint_sampler.num_inference_steps=50",
@@ -96,6 +100,7 @@ PRESETS: dict[str, list[str]] = {
         "method.evaluation.min_seconds=10.0",
         "method.evaluation.batch_size=16",
         "method.evaluation.extractor_epochs=100",
+        "method.evaluation.beat_bin_seconds=1.0",  # MoMu App. B.4-B.5 / LORIS one-second bins
     ],
 }
 
