@@ -85,70 +85,6 @@ MOMU_RECIPES = (
 """Every MoMu-Diffusion recipe, in the order `reproduce` runs them (Tables 5–6 reuse Table 2's model)."""
 
 
-_REPRODUCE_MARKER = "<!-- written by `nox -s reproduce`; a README without this line is kept -->"
-
-
-def _reproduction_readme(table: str, result: dict, command: str) -> str:
-    """reproductions/<table>/README.md: how it was produced, cost, and how to compare it with the paper."""
-    prov = result["provenance"]
-    lines = [
-        f"# {result['title']}",
-        "",
-        f"Produced by `nox -s reproduce` with `{command}`",
-        f"(preset `{result['preset']}`, data `{result['data']}`, seeds {result['seeds']}).",
-        "",
-        f"- wall time: {prov['wall_time_s']:.0f} s on {prov['num_processes']} process(es), "
-        f"device {prov['device']}",
-        f"- peak memory (main process): {prov['peak_memory_mib']:.0f} MiB",
-        f"- commit: `{prov['git_commit']}`",
-        "",
-        "`results.md` holds our numbers beside the paper's and the calibration rows; `results.json`",
-        "the same with the resolved config and provenance. The synthetic data stand in for the",
-        "paper's datasets, so compare the *ordering* of rows and our row against the calibration",
-        "rows, not the absolute values.",
-        "",
-        "## Our rows against the calibration rows",
-        "",
-    ]
-    cal = {c["name"]: c["metrics"] for c in result["calibration"]}
-    shuffled = next((m for n, m in cal.items() if "shuffled" in n), {})
-    for row in result["rows"]:
-        verdicts = []
-        for col in result["columns"]:
-            ours, chance = row["metrics"].get(col["key"]), shuffled.get(col["key"])
-            if ours is None or chance is None:
-                continue
-            better = ours > chance if col["higher_is_better"] else ours < chance
-            verb = "ties" if ours == chance else ("beats" if better else "does not beat")
-            verdicts.append(f"{col['label']} {verb} shuffled ({ours:.3g} vs {chance:.3g})")
-        lines.append(f"- {row['id']} {row['name']}: " + ("; ".join(verdicts) or "no comparable cells"))
-    lines += _reproduction_ordering(result)
-    return "\n".join(lines) + "\n"
-
-
-def _reproduction_ordering(result: dict) -> list[str]:
-    """Per column, the share of row pairs our numbers order as the paper's do (tables with 2+ rows)."""
-    rows = [r for r in result["rows"] if r["paper"]]
-    if len(rows) < 2:
-        return []
-    lines = ["", "## Ordering of rows against the paper's", ""]
-    for col in result["columns"]:
-        key, sign = col["key"], 1.0 if col["higher_is_better"] else -1.0
-        cells = [(r["id"], r["metrics"].get(key), r["paper"].get(key)) for r in rows]
-        cells = [c for c in cells if c[1] is not None and c[2] is not None]
-        pairs = [(a, b) for i, a in enumerate(cells) for b in cells[i + 1 :] if a[2] != b[2]]
-        if not pairs:
-            continue
-        agree = sum((a[1] - b[1]) * (a[2] - b[2]) > 0 for a, b in pairs)
-        best_ours = max(cells, key=lambda c: sign * c[1])[0]
-        best_paper = max(cells, key=lambda c: sign * c[2])[0]
-        lines.append(
-            f"- {col['label']}: {agree}/{len(pairs)} row pairs ordered as in the paper; "
-            f"best row {best_ours} here, {best_paper} in the paper (ties count as disagreement)"
-        )
-    return lines
-
-
 @nox.session(python=PYTHON, default=False)
 def reproduce(session: nox.Session) -> None:
     """Regenerate reproductions/<table>/ for every MoMu recipe at the `cpu` preset on synthetic data.
@@ -158,8 +94,6 @@ def reproduce(session: nox.Session) -> None:
     stages are trained once; results.json/results.md/config.yaml and the plots are copied to
     reproductions/<table>/ with a README per table.
     """
-    import json
-    import shutil
     from pathlib import Path
 
     _install(session, "render")
@@ -172,19 +106,6 @@ def reproduce(session: nox.Session) -> None:
         args = [f"recipes/{table}.py", "--preset", "cpu", "--data", "synth", "--out", str(work)]
         args += ["--tracker", "none"]
         session.run("python", *args, env=env)
-        src, dst = work / table, Path("reproductions") / table
-        dst.mkdir(parents=True, exist_ok=True)
-        for path in src.iterdir():
-            if path.is_file() and path.suffix in {".json", ".md", ".yaml", ".png"}:
-                shutil.copy2(path, dst / path.name)
-        for plot in sorted((src / "models").glob("*/beats.png")):
-            shutil.copy2(plot, dst / f"beats-{plot.parent.name}.png")
-        result = json.loads((src / "results.json").read_text())
         command = "python " + " ".join(args)
-        text = _REPRODUCE_MARKER + "\n" + _reproduction_readme(table, result, command)
-        readme = dst / "README.md"
-        if readme.is_file() and not readme.read_text().startswith(_REPRODUCE_MARKER):
-            readme = dst / "REPRODUCE.md"  # keep a hand-written README; put the summary beside it
-            session.warn(f"{dst / 'README.md'} is hand-written: kept; summary in {readme}, check its numbers")
-        readme.write_text(text)
-        session.log(f"{table}: {dst}")
+        dst = str(Path("reproductions") / table)
+        session.run("python", "-m", "momu.engine.reproduce", str(work / table), dst, "--command", command)

@@ -1,0 +1,134 @@
+"""Publish a recipe's results as a committed reproduction (``reproductions/<table>/``).
+
+``nox -s reproduce`` runs every MoMu recipe at the ``cpu`` preset into one work folder and then calls
+this module once per table::
+
+    python -m momu.engine.reproduce WORK/TABLE reproductions/TABLE --command "python recipes/..."
+
+It copies ``results.json`` / ``results.md`` / ``config.yaml`` and the plots, and writes a README
+saying how the numbers were produced (command, wall time, peak memory, commit), how every row
+compares with the shuffled calibration row, and how often our ordering of rows agrees with the
+paper's. A README without :data:`MARKER` on its first line is hand-written: it is kept and the
+summary goes to ``REPRODUCE.md`` beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import shutil
+from pathlib import Path
+from typing import Any
+
+from momu.io import atomic_write_text
+
+__all__ = ["MARKER", "publish", "readme_text", "row_verdicts", "ordering_lines"]
+
+log = logging.getLogger(__name__)
+
+MARKER = "<!-- written by `nox -s reproduce`; a README without this line is kept -->"
+_COPIED = {".json", ".md", ".yaml", ".png"}
+
+
+def row_verdicts(result: dict[str, Any]) -> list[str]:
+    """One line per row: each column of the row against the shuffled calibration row."""
+    calibration = {c["name"]: c["metrics"] for c in result.get("calibration", [])}
+    shuffled: dict[str, float] = next((m for name, m in calibration.items() if "shuffled" in name), {})
+    lines = []
+    for row in result["rows"]:
+        verdicts = []
+        for col in result["columns"]:
+            ours, chance = row["metrics"].get(col["key"]), shuffled.get(col["key"])
+            if ours is None or chance is None:
+                continue
+            better = ours > chance if col["higher_is_better"] else ours < chance
+            verb = "ties" if ours == chance else ("beats" if better else "does not beat")
+            verdicts.append(f"{col['label']} {verb} shuffled ({ours:.3g} vs {chance:.3g})")
+        lines.append(f"- {row['id']} {row['name']}: " + ("; ".join(verdicts) or "no comparable cells"))
+    return lines
+
+
+def ordering_lines(result: dict[str, Any]) -> list[str]:
+    """Per column, the share of row pairs our numbers order as the paper's do (2+ rows with paper cells)."""
+    rows = [r for r in result["rows"] if r.get("paper")]
+    if len(rows) < 2:
+        return []
+    lines = ["", "## Ordering of rows against the paper's", ""]
+    for col in result["columns"]:
+        key, sign = col["key"], 1.0 if col["higher_is_better"] else -1.0
+        cells = [(r["id"], r["metrics"].get(key), r["paper"].get(key)) for r in rows]
+        cells = [c for c in cells if c[1] is not None and c[2] is not None]
+        pairs = [(a, b) for i, a in enumerate(cells) for b in cells[i + 1 :] if a[2] != b[2]]
+        if not pairs:
+            continue
+        agree = sum((a[1] - b[1]) * (a[2] - b[2]) > 0 for a, b in pairs)
+        best_ours = max(cells, key=lambda c: sign * c[1])[0]
+        best_paper = max(cells, key=lambda c: sign * c[2])[0]
+        lines.append(
+            f"- {col['label']}: {agree}/{len(pairs)} row pairs ordered as in the paper; "
+            f"best row {best_ours} here, {best_paper} in the paper (ties count as disagreement)"
+        )
+    return lines
+
+
+def readme_text(result: dict[str, Any], command: str) -> str:
+    """The README of one reproduction (starts with :data:`MARKER`)."""
+    prov = result["provenance"]
+    lines = [
+        MARKER,
+        f"# {result['title']}",
+        "",
+        f"Produced by `nox -s reproduce` with `{command}`",
+        f"(preset `{result['preset']}`, data `{result['data']}`, seeds {result['seeds']}).",
+        "",
+        f"- wall time: {prov['wall_time_s']:.0f} s on {prov['num_processes']} process(es), "
+        f"device {prov['device']}",
+        f"- peak memory (main process): {prov['peak_memory_mib']:.0f} MiB",
+        f"- commit: `{prov['git_commit']}`",
+        "",
+        "`results.md` holds our numbers beside the paper's and the calibration rows; `results.json`",
+        "the same with the resolved config and provenance. The synthetic data stand in for the",
+        "paper's datasets, so compare the *ordering* of rows and our row against the calibration",
+        "rows, not the absolute values.",
+        "",
+        "## Our rows against the calibration rows",
+        "",
+        *row_verdicts(result),
+        *ordering_lines(result),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def publish(src: Path, dst: Path, command: str) -> Path:
+    """Copy ``src``'s results and plots to ``dst`` and write its README; returns the README written."""
+    results = src / "results.json"
+    if not results.is_file():
+        raise FileNotFoundError(f"{results}: no results.json (did the recipe finish?)")
+    result = json.loads(results.read_text())
+    dst.mkdir(parents=True, exist_ok=True)
+    for path in src.iterdir():
+        if path.is_file() and path.suffix in _COPIED:
+            shutil.copy2(path, dst / path.name)
+    for plot in sorted((src / "models").glob("*/beats.png")):
+        shutil.copy2(plot, dst / f"beats-{plot.parent.name}.png")
+    readme = dst / "README.md"
+    if readme.is_file() and not readme.read_text().startswith(MARKER):
+        readme = dst / "REPRODUCE.md"  # keep a hand-written README; put the summary beside it
+        log.warning("%s is hand-written: kept; summary in %s, check its numbers", dst / "README.md", readme)
+    atomic_write_text(readme, readme_text(result, command))
+    return readme
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Publish a recipe's results as reproductions/<table>/.")
+    parser.add_argument("src", type=Path, help="the recipe's output folder (<out>/<table>)")
+    parser.add_argument("dst", type=Path, help="reproductions/<table>")
+    parser.add_argument("--command", required=True, help="the command that produced src (for the README)")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(message)s")
+    log.info("wrote %s", publish(args.src, args.dst, args.command))
+
+
+if __name__ == "__main__":
+    main()
