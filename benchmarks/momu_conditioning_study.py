@@ -39,6 +39,25 @@ motion (13 px spread vs 19 px; 8.6 px with RCL). Plain 25-step DDIM diverges at 
 latent follow its music (MSE to clip i's latent 1.38 right vs 3.11 shuffled) and, with a motion VAE
 trained without RCL, BAS 0.236 vs 0.152 (mean of 3 noise seeds); with RCL (λ4 = 1 or 0.02) the
 decoded motion does not separate (the VAE is the bottleneck).
+
+Second round (12 held-out crops; ``f1_025s`` = kinematic-beat F1 in 0.25-s bins, percent):
+
+* ``vae_loss.reduction=sum`` (RCL kept): BAS right 0.273 vs shuffled 0.158, VAE spread 13.8 px.
+* With ``dataset.attack=0.3`` (moves start on the beat) ground truth scores f1_025s 83.8 vs 42.7
+  shuffled, but the VAE's reconstructions only 34: the zero-padded decoder put a ~20 px/frame jump on
+  the first and last frames, whose Q spike hides every other kinematic beat (``padding_mode=replicate``
+  removes it), and nearest-frame alignment of 60 fps motion to 62.5 fps repeated a frame every 0.5 s
+  (a one-frame stop = a spurious kinematic beat; ``align=linear`` now interpolates).
+* Reconstruction f1_025s: 34.5 (sum, replicate) → 47.7 (+ ``velocity_weight=10``; 45.8 at 30);
+  4000 instead of 1200 VAE steps 40.2; base width 32 with 2 residual blocks 35.4; latent rate
+  31.25 Hz 47.2; linear alignment 43.3. The reconstructions stay far from ground truth (position
+  error 5–11 px, velocity error 50–70 % of the speed): a sharp start is smeared over ~10 frames.
+* Generated, right vs shuffled music (f1_025s): 46.3 vs 40.4 (velocity 10, 1500 diffusion steps;
+  latent MSE 1.80 vs 2.07), 40.3 vs 40.9 without the velocity term, 43.7 vs 34.3 at lr 1e-3 / batch
+  16; the shuffled ground truth scores 42.7. The latent follows its music; the decoded beats barely.
+* Motion→music (music F1 in 0.25-s bins, same data): right 36.9 vs shuffled-condition 30.1 with the
+  plain DiT, 36.7 vs 37.7 with ``cond_add``; shuffled real music scores 44.4, the music VAE's own
+  reconstructions 100 (the mel VAE + Griffin-Lim keep every onset).
 """
 
 from __future__ import annotations
