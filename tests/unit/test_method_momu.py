@@ -383,3 +383,12 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert paper["#3"].method.contrastive_loss is None
     assert paper["#4"].method.music_backbone.name == "unet1d"
     assert paper["#6"].method.evaluation.variable_length
+    # MoMu's own loss and metric in the paper preset; the cpu preset's departures are explicit
+    assert paper["#7"].method.vae_loss.velocity_weight == 0.0  # Eq. 10-11: reconstruction + KL
+    assert paper["#7"].method.evaluation.beat_bin_seconds == 1.0  # App. B.4-B.5: one-second bins
+    assert enc.motion.padding_mode == "zeros"
+    cpu = resolve_row_configs(spec7, TableArgs("cpu", "synth", Path("x"), ["#7"], [], False, "none", []))[
+        "#7"
+    ]
+    assert cpu.method.evaluation.beat_bin_seconds == 0.25 and cpu.method.vae_loss.velocity_weight == 10.0
+    assert cpu.method.encoder.motion.padding_mode == "replicate" and cpu.dataset.attack == 0.3

@@ -39,7 +39,7 @@ _TINY_VAE = (
 _PAPER_VAE = (
     "{latent_channels: 20, base_channels: 192, channel_mult: [1, 2, 4], num_res_blocks: 2,"
     " attention_layers: 3, attention_heads: 8, downsample_rate: 2, downsample_levels: [0], kernel_size: 5,"
-    " norm_groups: 32}"
+    " norm_groups: 32, padding_mode: zeros}"
 )
 _TINY_DIT = "{name: dit, hidden: 32, heads: 2, depth: 1, cond_embed_dim: 32, max_length: 256}"
 
