@@ -58,6 +58,7 @@ __all__ = [
     "eval_lengths",
     "ensure_extractors",
     "beat_metric",
+    "trained_extractors",
     "pair_f1",
     "beat_onset_f1",
     "onset_alignment",
@@ -82,12 +83,19 @@ def eval_lengths(cfg: Any, seed: int) -> list[float]:
     return [float(x) for x in rng.uniform(cfg.min_seconds, cfg.seconds, int(cfg.num_clips))]
 
 
-def ensure_extractors(
-    ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], cfg: Any, seed: int
-) -> tuple[Any, Any]:
-    """The motion and audio feature extractors of FID/FAD, trained once per run on the train split.
+def trained_extractors(
+    ctx: RunContext,
+    dataset: Any,
+    data_key: Mapping[str, Any],
+    cfg: Any,
+    seed: int,
+    kinds: Sequence[str] = ("motion", "audio"),
+) -> dict[str, Any]:
+    """The FID/FAD feature extractors of ``kinds``, trained once per run on the train split.
 
-    Cached under ``<out>/parts/extractor-<kind>-<hash>.safetensors``; the main process trains, the
+    Cached under ``<out>/parts/extractor-<kind>-<hash>.safetensors`` (the hash covers the data, the
+    epochs, the samples per clip and the seed, not the kind list, so a run that needs only the
+    motion classifier shares its file with one that needs both); the main process trains, the
     others wait and load the same files.
     """
     key = {
@@ -98,11 +106,11 @@ def ensure_extractors(
     }
     digest = stage_key_hash(key)
     acc = ctx.accelerator
-    paths = {kind: ctx.parts_dir / f"extractor-{kind}-{digest}.safetensors" for kind in ("motion", "audio")}
+    paths = {kind: ctx.parts_dir / f"extractor-{kind}-{digest}.safetensors" for kind in kinds}
     clips: list[Clip] | None = None
     for kind, path in paths.items():
         if path.is_file():
-            ctx.trained[path.stem] = "reused"
+            ctx.trained.setdefault(path.stem, "reused")  # "trained" stays if this run trained it
             continue
         if acc.is_main_process:
             if clips is None:
@@ -117,7 +125,15 @@ def ensure_extractors(
             train_extractor(kind, clips, path, train=train)
         acc.wait_for_everyone()
         ctx.trained[path.stem] = "trained"
-    return load_extractor(paths["motion"]), load_extractor(paths["audio"])
+    return {kind: load_extractor(path) for kind, path in paths.items()}
+
+
+def ensure_extractors(
+    ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], cfg: Any, seed: int
+) -> tuple[Any, Any]:
+    """``(motion, audio)`` extractors of FID/FAD (:func:`trained_extractors`)."""
+    both = trained_extractors(ctx, dataset, data_key, cfg, seed)
+    return both["motion"], both["audio"]
 
 
 def beat_metric(name: str, bin_seconds: float, **params: Any) -> Any:

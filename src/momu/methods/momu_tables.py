@@ -48,13 +48,18 @@ from momu.engine.evaluate import map_gathered
 from momu.engine.table import Column, PaperRow, Row, TableSpec
 from momu.engine.trainer import TrainConfig
 from momu.methods.momu import MoMu, MoMuModel
-from momu.methods.momu_data import eval_crops, select_split
-from momu.methods.momu_eval import _clip, beat_metric, beat_onset_f1, derangement, onset_alignment
+from momu.methods.momu_data import eval_crops
+from momu.methods.momu_eval import (
+    _clip,
+    beat_metric,
+    beat_onset_f1,
+    derangement,
+    onset_alignment,
+    trained_extractors,
+)
 from momu.methods.momu_learnable import LearnableMotionToMusic, fit_learnable_motion_to_music
 from momu.methods.momu_recipes import BASE_CONFIG
 from momu.methods.momu_recipes import PRESETS as MOMU_PRESETS
-from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
-from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.loris_scores import onset_times
 from momu.registry import METRICS
 
@@ -548,32 +553,10 @@ def _generate_motion(
 def motion_extractor(ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], ev: Any, seed: int) -> Any:
     """The FID / Diversity / Mean KLD motion classifier, trained once on the ``train`` split.
 
-    The same cache file (key, hash and name) as :func:`momu.methods.momu_eval.ensure_extractors`,
-    which also trains the audio extractor that Table 6 does not need.
+    The same cache file as :func:`momu.methods.momu_eval.ensure_extractors`, without the audio
+    extractor that Table 6 does not need.
     """
-    key = {
-        "data": dict(data_key),
-        "epochs": int(ev.extractor_epochs),
-        "samples_per_clip": int(ev.extractor_samples_per_clip),
-        "seed": seed,
-    }
-    path = ctx.parts_dir / f"extractor-motion-{stage_key_hash(key)}.safetensors"
-    if path.is_file():
-        ctx.trained.setdefault(path.stem, "reused")  # "trained" stays if this run trained it
-    else:
-        if ctx.accelerator.is_main_process:
-            clips = [dataset[i] for i in select_split(dataset, "train")]
-            train = ExtractorTrainConfig(
-                epochs=int(ev.extractor_epochs),
-                samples_per_clip=int(ev.extractor_samples_per_clip),
-                seed=seed,
-                val_fraction=0.0,
-            )
-            path.parent.mkdir(parents=True, exist_ok=True)
-            train_extractor("motion", clips, path, train=train)
-        ctx.accelerator.wait_for_everyone()
-        ctx.trained[path.stem] = "trained"
-    return load_extractor(path)
+    return trained_extractors(ctx, dataset, data_key, ev, seed, kinds=("motion",))["motion"]
 
 
 def _quality(
