@@ -57,7 +57,8 @@ Second round (12 held-out crops; ``f1_025s`` = kinematic-beat F1 in 0.25-s bins,
   16; the shuffled ground truth scores 42.7. The latent follows its music; the decoded beats barely.
 * Motion→music (music F1 in 0.25-s bins, same data): right 36.9 vs shuffled-condition 30.1 with the
   plain DiT, 36.7 vs 37.7 with ``cond_add``; shuffled real music scores 44.4, the music VAE's own
-  reconstructions 100 (the mel VAE + Griffin-Lim keep every onset).
+  reconstructions 100 (the mel VAE + Griffin-Lim keep every onset). With 4000 diffusion steps θ_a
+  follows its motion (24.4 right vs 12.8 shuffled condition) but places fewer onsets overall.
 """
 
 from __future__ import annotations
