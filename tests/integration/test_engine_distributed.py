@@ -5,31 +5,17 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 from pathlib import Path
+
+from tests.helpers.launch import accelerate_launch
 
 SCRIPT = Path(__file__).parent / "scripts" / "engine_two_processes.py"
 
 
 def test_two_process_training_and_gather(tmp_path: Path) -> None:
-    launcher = Path(sys.executable).with_name("accelerate")
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "disabled"}
     proc = subprocess.run(
-        [
-            str(launcher),
-            "launch",
-            "--multi_gpu",
-            "--num_processes",
-            "2",
-            "--num_machines",
-            "1",
-            "--mixed_precision",
-            "no",
-            "--dynamo_backend",
-            "no",
-            str(SCRIPT),
-            str(tmp_path),
-        ],
+        accelerate_launch(SCRIPT, str(tmp_path), processes=2),
         capture_output=True,
         text=True,
         env=env,

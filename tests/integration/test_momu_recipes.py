@@ -10,35 +10,17 @@ import sys
 from pathlib import Path
 
 import pytest
+from tests.helpers.launch import accelerate_launch
 
 ROOT = Path(__file__).resolve().parents[2]
-LAUNCHER = Path(sys.executable).with_name("accelerate")
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "disabled", "PYTHONHASHSEED": "0"}
 TABLE7_ROWS = ["#1", "#2", "#3", "#4", "#5", "#6", "#7"]
 COLUMNS = ["music_fad", "music_f1", "motion_fid", "motion_f1"]
 
 
 def _launch(recipe: str, out: Path, *, processes: int = 1, extra: tuple[str, ...] = ()) -> dict:
-    multi = ["--multi_gpu", "--num_processes", str(processes)] if processes > 1 else ["--num_processes", "1"]
-    cmd = [
-        str(LAUNCHER),
-        "launch",
-        *multi,
-        "--num_machines",
-        "1",
-        "--mixed_precision",
-        "no",
-        "--dynamo_backend",
-        "no",
-        str(ROOT / "recipes" / recipe),
-        "--preset",
-        "smoke",
-        "--out",
-        str(out),
-        "--tracker",
-        "none",
-        *extra,
-    ]
+    args = ("--preset", "smoke", "--out", str(out), "--tracker", "none", *extra)
+    cmd = accelerate_launch(ROOT / "recipes" / recipe, *args, processes=processes)
     proc = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads((out / recipe.removesuffix(".py") / "results.json").read_text())

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
 import torch
+from tests.helpers.encoders import tiny_vae_config
 
 from momu.encoders.blocks import (
     Downsample1d,
@@ -88,28 +90,19 @@ def test_replicate_padding_has_no_edge_effect() -> None:
     # A latent constant over time decodes to an output constant over time when every convolution
     # continues its edge frame; zero padding makes the first and last frames differ (fake silence).
     torch.manual_seed(0)
-    base = dict(
-        latent_channels=3,
-        base_channels=8,
-        channel_mult=[1, 2],
-        num_res_blocks=1,
-        attention_layers=1,
-        attention_heads=2,
-        downsample_levels=[0],
-        norm_groups=4,
-    )
+    base = dataclasses.replace(tiny_vae_config(), latent_channels=3, norm_groups=4)
     z = torch.ones(1, 3, 6) * torch.tensor([0.5, -1.0, 2.0])[None, :, None]
     outputs = {}
     for mode in ("zeros", "replicate"):
         torch.manual_seed(0)
-        outputs[mode] = Decoder1d(4, VAE1dConfig(**base, padding_mode=mode))(z).detach()  # type: ignore[arg-type]
+        outputs[mode] = Decoder1d(4, dataclasses.replace(base, padding_mode=mode))(z).detach()
     flat = outputs["replicate"] - outputs["replicate"][..., :1]
     assert flat.abs().max() < 1e-4  # float32 rounding only
     assert (outputs["zeros"][..., 0] - outputs["zeros"][..., 6]).abs().max() > 1e-3
     # the weights are the same modules: a checkpoint loads whatever the padding mode
     torch.manual_seed(0)
-    zeros = Decoder1d(4, VAE1dConfig(**base))  # type: ignore[arg-type]
-    Decoder1d(4, VAE1dConfig(**base, padding_mode="replicate")).load_state_dict(zeros.state_dict())  # type: ignore[arg-type]
+    zeros = Decoder1d(4, base)
+    Decoder1d(4, dataclasses.replace(base, padding_mode="replicate")).load_state_dict(zeros.state_dict())
     with pytest.raises(ValueError, match=r"vae\.padding_mode"):
         check_vae_config(VAE1dConfig(padding_mode="circle"))
 
