@@ -101,7 +101,7 @@ def second_bins(times: np.ndarray, duration: float, bin_seconds: float = 1.0) ->
     w = check_bin_seconds(bin_seconds)
     n = int(np.ceil(duration / w - 1e-9)) if w != 1.0 else int(np.ceil(duration))
     bins = np.zeros(n, dtype=np.int64)
-    idx = np.trunc(t / w).astype(np.int64) if w != 1.0 else np.trunc(t).astype(np.int64)
+    idx = np.trunc(t / w).astype(np.int64)  # t / 1.0 is t exactly: the reference's bins
     if idx.size and idx.max() >= n:
         raise ValueError(f"times: an event at {t.max():.3f} s lies past the signal's {n} bins of {w:g} s")
     bins[idx] = 1
