@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 import signal
 from pathlib import Path
@@ -13,6 +15,7 @@ from torch.utils.data import TensorDataset
 
 from momu.engine import Preempted, RunConfig, TrainConfig, make_accelerator, map_gathered, train_stage
 from momu.engine.state import capture_rng, flatten_state, latest_checkpoint, restore_rng, unflatten_state
+from momu.engine.trainer import lr_factor
 
 
 def _data() -> TensorDataset:
@@ -40,7 +43,9 @@ def _accelerator(tmp: Path):
     return make_accelerator(RunConfig(tracker="none"), tmp, "test", {})
 
 
-def test_resume_after_interruption_is_bit_identical(tmp_path: Path) -> None:
+@pytest.mark.parametrize("schedule", ["constant", "cosine"])
+def test_resume_after_interruption_is_bit_identical(tmp_path: Path, schedule: str) -> None:
+    cfg = dataclasses.replace(CFG, lr_schedule=schedule, warmup_steps=2)
     acc = _accelerator(tmp_path)
     reference = train_stage(
         acc,
@@ -48,7 +53,7 @@ def test_resume_after_interruption_is_bit_identical(tmp_path: Path) -> None:
         model=_model(0),
         dataset=_data(),
         loss_fn=_loss,
-        cfg=CFG,
+        cfg=cfg,
         checkpoint_root=tmp_path / "a",
     )
 
@@ -67,7 +72,7 @@ def test_resume_after_interruption_is_bit_identical(tmp_path: Path) -> None:
             model=_model(0),
             dataset=_data(),
             loss_fn=crashing_loss,
-            cfg=CFG,
+            cfg=cfg,
             checkpoint_root=tmp_path / "b",
         )
     assert latest_checkpoint(tmp_path / "b").name == "step_00000004"
@@ -78,7 +83,7 @@ def test_resume_after_interruption_is_bit_identical(tmp_path: Path) -> None:
         model=_model(99),
         dataset=_data(),
         loss_fn=_loss,
-        cfg=CFG,
+        cfg=cfg,
         checkpoint_root=tmp_path / "b",
         resume=True,
     )
@@ -102,6 +107,33 @@ def test_training_reduces_loss_and_keeps_newest_checkpoints(tmp_path: Path) -> N
         and not list(tmp_path.rglob("*.bin"))
         and not list(tmp_path.rglob("*.pt"))
     )
+
+
+def test_lr_factor_warms_up_then_follows_the_schedule() -> None:
+    const = TrainConfig(steps=10, warmup_steps=4)
+    assert [lr_factor(s, const) for s in range(6)] == [0.25, 0.5, 0.75, 1.0, 1.0, 1.0]
+    cos = dataclasses.replace(const, lr_schedule="cosine")
+    assert [lr_factor(s, cos) for s in range(4)] == [0.25, 0.5, 0.75, 1.0]
+    assert lr_factor(4, cos) == 1.0  # decay starts after the warm-up
+    assert math.isclose(lr_factor(7, cos), 0.5)  # half-way through the 6 post-warm-up steps
+    assert math.isclose(lr_factor(10, cos), 0.0, abs_tol=1e-12)
+    factors = [lr_factor(s, cos) for s in range(4, 11)]
+    assert all(a > b for a, b in zip(factors, factors[1:]))
+
+
+def test_unknown_lr_schedule_fails_before_training(tmp_path: Path) -> None:
+    cfg = dataclasses.replace(CFG, lr_schedule="linear")
+    with pytest.raises(ValueError, match="lr_schedule"):
+        train_stage(
+            _accelerator(tmp_path),
+            name="bad",
+            model=_model(0),
+            dataset=_data(),
+            loss_fn=_loss,
+            cfg=cfg,
+            checkpoint_root=tmp_path / "c",
+        )
+    assert not (tmp_path / "c").exists()
 
 
 def test_sigterm_writes_a_checkpoint_then_raises(tmp_path: Path) -> None:

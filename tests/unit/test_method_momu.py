@@ -113,6 +113,13 @@ def test_bad_method_values_are_named() -> None:
         )
 
 
+def test_guidance_scales_must_be_finite() -> None:
+    with pytest.raises(ValueError, match="method.music_guidance_scale"):
+        build_component({"name": "momu", "music_guidance_scale": float("nan")}, "methods")
+    method = build_component({"name": "momu", "motion_guidance_scale": 6}, "methods")
+    assert method.cfg.motion_guidance_scale == 6 and method.cfg.music_guidance_scale is None
+
+
 def test_backbone_channels_come_from_the_latent_width() -> None:
     assert backbone_node({"name": "dit", "in_channels": 99}, 7)["in_channels"] == 7
     node = backbone_node("unet1d", 5)
@@ -268,6 +275,22 @@ def test_generation_shapes_rates_and_per_item_determinism(trained) -> None:
     assert [abs(len(a) / 16000 - s) < 0.05 for (a, _), s in zip(pairs, [1.0, 0.6])] == [True, True]
 
 
+def test_each_direction_has_its_own_guidance_scale(trained) -> None:
+    _, model, dataset, _ = trained
+    clip = dataset[6]
+    audio, motion = clip.audio[:16000], clip.motion[:60]
+    default = model.music_to_motion([audio], 16000, [3])[0]  # sampler.guidance_scale
+    explicit = model.music_to_motion([audio], 16000, [3], guidance_scale=5.0)[0]
+    music_default = model.motion_to_music([motion], 60.0, [1])[0]
+    model.cfg.motion_guidance_scale = 5.0
+    try:
+        np.testing.assert_allclose(model.music_to_motion([audio], 16000, [3])[0], explicit, atol=1e-5)
+        assert not np.allclose(explicit, default, atol=1e-3)
+        np.testing.assert_allclose(model.motion_to_music([motion], 60.0, [1])[0], music_default, atol=1e-5)
+    finally:
+        model.cfg.motion_guidance_scale = None
+
+
 def test_save_load_round_trip_and_strict_loading(trained, tmp_path: Path) -> None:
     _, model, dataset, _ = trained
     folder = model.save(tmp_path / "model")
@@ -387,8 +410,12 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert paper["#7"].method.vae_loss.velocity_weight == 0.0  # Eq. 10-11: reconstruction + KL
     assert paper["#7"].method.evaluation.beat_bin_seconds == 1.0  # App. B.4-B.5: one-second bins
     assert enc.motion.padding_mode == "zeros"
+    assert paper["#7"].method.train_diffusion.lr_schedule == "constant"  # App. B.3: warm-up, no decay
+    assert not paper["#7"].method.music_backbone.get("cond_add", False)  # the paper's token pathway only
     cpu = resolve_row_configs(spec7, TableArgs("cpu", "synth", Path("x"), ["#7"], [], False, "none", []))[
         "#7"
     ]
     assert cpu.method.evaluation.beat_bin_seconds == 0.25 and cpu.method.vae_loss.velocity_weight == 10.0
     assert cpu.method.encoder.motion.padding_mode == "replicate" and cpu.dataset.attack == 0.3
+    assert cpu.method.train_diffusion.lr_schedule == "cosine"
+    assert cpu.method.music_backbone.cond_add and cpu.method.motion_backbone.cond_add

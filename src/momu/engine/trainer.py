@@ -65,6 +65,7 @@ class TrainConfig:
     grad_accum: int = 1
     max_grad_norm: float = 1.0  # 0 disables clipping
     warmup_steps: int = 0  # linear warm-up of the learning rate
+    lr_schedule: str = "constant"  # after warm-up: "constant", or "cosine" decay to 0 at `steps`
     checkpoint_every: int = 0  # 0: checkpoint only at the end and on SIGTERM
     keep_checkpoints: int = 2  # newest checkpoints kept (0 keeps all)
     log_every: int = 25
@@ -143,8 +144,23 @@ def _load(accelerator: Accelerator, checkpoint: Path, model: nn.Module, optimize
     return int(meta["step"])
 
 
-def _warmup(step: int, warmup_steps: int) -> float:
-    return min(1.0, (step + 1) / warmup_steps) if warmup_steps > 0 else 1.0
+LR_SCHEDULES = ("constant", "cosine")
+
+
+def lr_factor(step: int, cfg: TrainConfig) -> float:
+    """Learning-rate multiplier of optimizer step ``step`` (0-based): linear warm-up, then the schedule.
+
+    ``"constant"`` keeps 1 after warm-up; ``"cosine"`` decays ``0.5 (1 + cos(π p))`` with ``p`` the
+    fraction of the post-warm-up steps done, reaching 0 at ``cfg.steps``.
+    """
+    if cfg.lr_schedule not in LR_SCHEDULES:
+        raise ValueError(f"lr_schedule: expected one of {LR_SCHEDULES}, got {cfg.lr_schedule!r}")
+    if step < cfg.warmup_steps:
+        return (step + 1) / cfg.warmup_steps
+    if cfg.lr_schedule == "constant":
+        return 1.0
+    p = (step - cfg.warmup_steps) / max(1, cfg.steps - cfg.warmup_steps)
+    return 0.5 * (1.0 + math.cos(math.pi * min(1.0, p)))
 
 
 def train_stage(
@@ -179,6 +195,7 @@ def train_stage(
             f"stage {name!r}: dataset has {len(dataset)} items, fewer than one batch "  # type: ignore[arg-type]
             f"({cfg.batch_size} per process × {accelerator.num_processes} processes)"
         )
+    lr_factor(0, cfg)  # a bad schedule name fails before any work
     set_seed(cfg.seed, device_specific=True)  # seed + process index: distinct noise per process
     params = [p for p in model.parameters() if p.requires_grad]
     optimizer = torch.optim.AdamW(
@@ -221,7 +238,7 @@ def train_stage(
             batch_iter = accelerator.skip_first_batches(loader, skip) if skip else loader
             for batch in batch_iter:
                 for group in optimizer.param_groups:
-                    group["lr"] = cfg.lr * _warmup(step, cfg.warmup_steps)
+                    group["lr"] = cfg.lr * lr_factor(step, cfg)
                 with accelerator.accumulate(model):
                     out = loss_fn(model, batch)
                     loss, logs = out if isinstance(out, tuple) else (out, {})

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,6 +124,9 @@ class MoMuConfig:
         window_hop_seconds: hop between training windows.
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
+        music_guidance_scale, motion_guidance_scale: CFG scale w of Eq. 7 for motion→music (θ_a) and
+            music→motion (θ_m); ``null`` uses ``sampler.guidance_scale``. The paper gives no value
+            for either; a call's own ``guidance_scale`` argument overrides both.
         train_music_vae, train_motion_vae, train_diffusion: engine settings of the three stages.
         evaluation: :class:`MoMuEvalConfig`.
     """
@@ -144,6 +148,8 @@ class MoMuConfig:
     window_hop_seconds: float = 2.0
     bone_correction: bool = False
     bone_ratio: float = 1.3
+    music_guidance_scale: float | None = None
+    motion_guidance_scale: float | None = None
     train_music_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_motion_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_diffusion: TrainConfig = field(default_factory=lambda: TrainConfig(steps=2000, lr=1e-4))
@@ -186,6 +192,10 @@ def _check_config(cfg: MoMuConfig) -> None:
         )
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
+    for name in ("music_guidance_scale", "motion_guidance_scale"):
+        scale = getattr(cfg, name)
+        if scale is not None and not math.isfinite(float(scale)):
+            raise ValueError(f"method.{name} must be a finite number or null, got {scale!r}")
 
 
 class MoMu:
@@ -402,9 +412,12 @@ def encode_windows(
     return torch.cat(zs_a), torch.cat(zs_m)
 
 
-def _item_noise(length: int, channels: int, seed: int) -> torch.Tensor:
+def _item_noise(length: int, channels: int, seed: int) -> tuple[torch.Tensor, torch.Generator]:
+    """An item's initial noise ``(length, channels)`` and its generator, which then draws the item's
+    stochastic sampling steps: a sample depends on its seed only, not on the batch, the process or
+    what ran before it."""
     gen = torch.Generator().manual_seed(int(seed))
-    return torch.randn(length, channels, generator=gen)
+    return torch.randn(length, channels, generator=gen), gen
 
 
 def _pad(items: Sequence[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -559,10 +572,17 @@ class MoMuModel:
         if len(conds) != len(seeds):
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
         d = self.latent_channels
-        noise, x_mask = _pad([_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)])
+        items = [_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)]
+        noise, x_mask = _pad([n for n, _ in items])
         cond, cond_mask = _pad(list(conds))
         z = self.sampler.sample(
-            backbone, noise, cond, x_mask=x_mask, cond_mask=cond_mask, guidance_scale=guidance_scale
+            backbone,
+            noise,
+            cond,
+            x_mask=x_mask,
+            cond_mask=cond_mask,
+            guidance_scale=guidance_scale,
+            generator=[g for _, g in items],
         )
         return [z[i, : c.shape[0]] for i, c in enumerate(conds)]
 
@@ -576,10 +596,8 @@ class MoMuModel:
     ) -> list[np.ndarray]:
         """Music→motion (θ_m, CFG Eq. 7): one ``(T, J, D)`` motion at ``rates.motion_fps`` per waveform."""
         conds = [self.encode_music(a, sample_rate) for a in audios]
-        return [
-            self.decode_motion(z)
-            for z in self._cfg_sample(self.motion_backbone, conds, seeds, guidance_scale)
-        ]
+        scale = self.cfg.motion_guidance_scale if guidance_scale is None else guidance_scale
+        return [self.decode_motion(z) for z in self._cfg_sample(self.motion_backbone, conds, seeds, scale)]
 
     def motion_to_music(
         self,
@@ -592,9 +610,8 @@ class MoMuModel:
         """Motion→music (θ_a, CFG Eq. 7; mel decoded and vocoded): waveforms at ``rates.sample_rate``."""
         rates = [float(fps)] * len(motions) if isinstance(fps, (int, float)) else [float(f) for f in fps]
         conds = [self.encode_motion(m, f) for m, f in zip(motions, rates)]
-        return [
-            self.decode_music(z) for z in self._cfg_sample(self.music_backbone, conds, seeds, guidance_scale)
-        ]
+        scale = self.cfg.music_guidance_scale if guidance_scale is None else guidance_scale
+        return [self.decode_music(z) for z in self._cfg_sample(self.music_backbone, conds, seeds, scale)]
 
     @torch.no_grad()
     def joint(self, seconds: Sequence[float], seeds: Sequence[int]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -606,8 +623,8 @@ class MoMuModel:
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(seconds)} lengths")
         d = self.latent_channels
         lengths = [self.rates.latent_frames(float(s)) for s in seconds]
-        music_noise, mask = _pad([_item_noise(n, d, 2 * s) for n, s in zip(lengths, seeds)])
-        motion_noise, _ = _pad([_item_noise(n, d, 2 * s + 1) for n, s in zip(lengths, seeds)])
+        music_noise, mask = _pad([_item_noise(n, d, 2 * s)[0] for n, s in zip(lengths, seeds)])
+        motion_noise, _ = _pad([_item_noise(n, d, 2 * s + 1)[0] for n, s in zip(lengths, seeds)])
         z_a, z_m = self.joint_sampler.sample(
             self.music_backbone,
             self.motion_backbone,

@@ -196,7 +196,8 @@ class LearnableMotionToMusic:
             )
         conds = [self.condition(m, f) for m, f in zip(motions, fps)]
         d = int(self.vae.latent_channels)
-        noise, x_mask = _pad([_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)])
+        items = [_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)]
+        noise, x_mask = _pad([n for n, _ in items])
         cond, cond_mask = _pad(conds)
         z = self.sampler.sample(
             self.stage.backbone,
@@ -205,6 +206,7 @@ class LearnableMotionToMusic:
             x_mask=x_mask,
             cond_mask=cond_mask,
             guidance_scale=guidance_scale,
+            generator=[g for _, g in items],
         )
         return [self.decode_music(z[i, : c.shape[0]]) for i, c in enumerate(conds)]
 

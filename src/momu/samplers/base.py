@@ -24,6 +24,7 @@ from momu.schedulers.diffusers_schedulers import NoiseScheduler
 __all__ = [
     "Backbone",
     "EpsFn",
+    "Generators",
     "resolve_scheduler",
     "make_noise",
     "module_device",
@@ -84,9 +85,14 @@ def module_device(module: Any) -> tuple[torch.device, torch.dtype]:
     return torch.device("cpu"), torch.float32
 
 
+Generators = torch.Generator | list[torch.Generator] | None
+"""One generator for the batch, or one per item (each item's noise then depends only on its own
+generator, not on the batch it is sampled in), or None (the global RNG)."""
+
+
 def make_noise(
     noise_or_shape: Tensor | Sequence[int],
-    generator: torch.Generator | None,
+    generator: Generators,
     device: torch.device,
     dtype: torch.dtype,
 ) -> Tensor:
@@ -97,8 +103,15 @@ def make_noise(
         shape = tuple(int(s) for s in noise_or_shape)
         if len(shape) != 3 or min(shape) <= 0:
             raise ValueError(f"shape: expected a positive (B, T, C), got {shape}")
-        gen_device = generator.device if generator is not None else device
-        noise = torch.randn(shape, generator=generator, device=gen_device, dtype=dtype).to(device)
+        if isinstance(generator, list):
+            if len(generator) != shape[0]:
+                raise ValueError(f"generator: {len(generator)} generators for a batch of {shape[0]}")
+            noise = torch.stack(
+                [torch.randn(shape[1:], generator=g, device=g.device, dtype=dtype) for g in generator]
+            ).to(device)
+        else:
+            gen_device = generator.device if generator is not None else device
+            noise = torch.randn(shape, generator=generator, device=gen_device, dtype=dtype).to(device)
     if noise.ndim != 3:
         raise ValueError(f"noise: expected (B, T, C), got {tuple(noise.shape)}")
     return noise
@@ -165,7 +178,7 @@ def reverse_loop(
     eps_fn: EpsFn,
     *,
     x_mask: Tensor | None = None,
-    generator: torch.Generator | None = None,
+    generator: Generators = None,
     num_inference_steps: int | None = None,
     before_step: Callable[[Tensor, int], Tensor] | None = None,
 ) -> Tensor:

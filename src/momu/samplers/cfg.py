@@ -16,6 +16,7 @@ from torch import Tensor
 from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
+    Generators,
     guided_eps,
     make_noise,
     module_device,
@@ -63,7 +64,7 @@ class CFGSampler:
         *,
         x_mask: Tensor | None = None,
         cond_mask: Tensor | None = None,
-        generator: torch.Generator | None = None,
+        generator: Generators = None,
         guidance_scale: float | None = None,
         num_inference_steps: int | None = None,
     ) -> Tensor:
@@ -76,7 +77,7 @@ class CFGSampler:
                 for unconditional sampling.
             x_mask: ``(B, T)`` valid frames for variable-length batches (MoMu §5.3).
             cond_mask: ``(B, Tc)`` valid condition frames.
-            generator: seeds the initial noise and stochastic steps.
+            generator: seeds the initial noise and stochastic steps (one per item: batch-independent).
             guidance_scale: overrides ``cfg.guidance_scale``.
             num_inference_steps: overrides the configured number of steps.
 

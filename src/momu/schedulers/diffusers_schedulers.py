@@ -122,7 +122,11 @@ class SamplingRun:
         self._step_kwargs = step_kwargs
 
     def step(
-        self, eps: Tensor, t: int | Tensor, x: Tensor, generator: torch.Generator | None = None
+        self,
+        eps: Tensor,
+        t: int | Tensor,
+        x: Tensor,
+        generator: torch.Generator | list[torch.Generator] | None = None,
     ) -> Tensor:
         """z_{t−Δt} from z_t and the predicted noise ``eps`` (both ``(B, T, C)``)."""
         out = self.scheduler.step(eps, int(t), x, generator=generator, return_dict=True, **self._step_kwargs)
