@@ -275,6 +275,27 @@ def test_generation_shapes_rates_and_per_item_determinism(trained) -> None:
     assert [abs(len(a) / 16000 - s) < 0.05 for (a, _), s in zip(pairs, [1.0, 0.6])] == [True, True]
 
 
+def test_stochastic_sampling_depends_on_the_seed_only(trained) -> None:
+    _, model, dataset, _ = trained
+    clip = dataset[6]
+    saved = model._sampler
+    model._sampler = build_component(
+        {"name": "cfg", "num_inference_steps": 4, "scheduler": {"name": "ddpm"}}, "samplers"
+    )
+    try:
+        batch = model.music_to_motion([clip.audio[:16000], clip.audio[:8000]], 16000, [3, 4])
+        torch.manual_seed(123)  # the global RNG plays no part
+        alone = model.music_to_motion([clip.audio[:16000]], 16000, [3])[0]
+        other = model.music_to_motion([clip.audio[:16000]], 16000, [5])[0]
+        music = model.motion_to_music([clip.motion[:60], clip.motion[:30]], 60.0, [1, 2])
+        music_alone = model.motion_to_music([clip.motion[:60]], 60.0, [1])[0]
+    finally:
+        model._sampler = saved
+    np.testing.assert_allclose(alone, batch[0], atol=1e-4)
+    assert not np.allclose(alone, other, atol=1e-3)
+    np.testing.assert_allclose(music_alone, music[0], atol=1e-4)
+
+
 def test_each_direction_has_its_own_guidance_scale(trained) -> None:
     _, model, dataset, _ = trained
     clip = dataset[6]

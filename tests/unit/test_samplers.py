@@ -104,6 +104,25 @@ def test_sampling_is_reproducible_with_a_seeded_generator() -> None:
     assert not torch.allclose(runs[0], other)
 
 
+def test_per_item_generators_make_stochastic_samples_batch_independent() -> None:
+    model = tiny_dit()
+    sampler = SAMPLERS.build("cfg", {"num_inference_steps": 3, "scheduler": {"name": "ddpm"}})
+    cond = torch.randn(2, 4, 3)
+
+    def gens(*seeds: int) -> list[torch.Generator]:
+        return [torch.Generator().manual_seed(s) for s in seeds]
+
+    batched = sampler.sample(model, (2, 6, 4), cond, generator=gens(7, 8))
+    torch.manual_seed(0)  # the global RNG plays no part
+    second = sampler.sample(model, (1, 6, 4), cond[1:], generator=gens(8))
+    torch.testing.assert_close(batched[1:], second, atol=1e-5, rtol=1e-5)
+    assert not torch.allclose(batched[0], batched[1])
+    with pytest.raises(ValueError, match="2 generators for a batch of 3"):
+        sampler.sample(model, (3, 6, 4), torch.randn(3, 4, 3), generator=gens(1, 2))
+    with pytest.raises(ValueError, match="1 generators for a batch of 2"):
+        sampler.sample(model, torch.randn(2, 6, 4), cond, generator=gens(1))
+
+
 def test_variable_length_batch_equals_individual_generation() -> None:
     """MoMu §5.3: one padded batch of different lengths = each length generated alone (DDIM, η=0)."""
     model = tiny_dit()

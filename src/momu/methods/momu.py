@@ -434,9 +434,10 @@ def _pad(items: Sequence[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | No
 class MoMuModel:
     """A trained MoMu-Diffusion: BiCoR-VAE, θ_a, θ_m, normalisers; generation in every direction.
 
-    Every generator takes per-item ``seeds``; an item's initial noise depends only on its seed
-    (not on batching), and the default DDIM sampler (η = 0) is deterministic, so an item is
-    generated identically alone, in a batch, or on another process.
+    Every generator takes per-item ``seeds``. In cross-modal generation an item's initial noise and
+    the noise of its stochastic steps (DDPM) come from its own seeded generator, so an item is
+    generated identically alone, in a batch, on another process, or after any other work (joint
+    generation: the initial noise, with the deterministic DDIM steps of the default sampler).
     """
 
     def __init__(

@@ -190,6 +190,8 @@ def reverse_loop(
         x_mask: ``(B, T)`` valid frames; padded frames are held at zero.
         before_step: optional ``f(z_t, t) -> z_t`` applied before each model call (inpainting).
     """
+    if isinstance(generator, list) and len(generator) != x_T.shape[0]:
+        raise ValueError(f"generator: {len(generator)} generators for a batch of {x_T.shape[0]}")
     run = scheduler.begin(num_inference_steps)
     keep = None if x_mask is None else x_mask[..., None].to(x_T.dtype)
     x = x_T if keep is None else x_T * keep
