@@ -153,7 +153,7 @@ def main() -> None:
     t0 = time.perf_counter()
     # model.music_to_motion, split open to also score the latents (the same calls)
     z_cond = [model.encode_music(a, sr) for a in conds]
-    z_gen = model._cfg_sample(model.motion_backbone, z_cond, seeds, None)
+    z_gen = model._cfg_sample("motion", z_cond, seeds, None)
     gen = [model.decode_motion(z) for z in z_gen]
     fps = model.rates.motion_fps
     print(f"generate_seconds: {time.perf_counter() - t0:.0f} for {2 * n} clips of {args.seconds} s")

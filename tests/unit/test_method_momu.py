@@ -113,13 +113,6 @@ def test_bad_method_values_are_named() -> None:
         )
 
 
-def test_guidance_scales_must_be_finite() -> None:
-    with pytest.raises(ValueError, match="method.music_guidance_scale"):
-        build_component({"name": "momu", "music_guidance_scale": float("nan")}, "methods")
-    method = build_component({"name": "momu", "motion_guidance_scale": 6}, "methods")
-    assert method.cfg.motion_guidance_scale == 6 and method.cfg.music_guidance_scale is None
-
-
 def test_backbone_channels_come_from_the_latent_width() -> None:
     assert backbone_node({"name": "dit", "in_channels": 99}, 7)["in_channels"] == 7
     node = backbone_node("unet1d", 5)
@@ -278,10 +271,11 @@ def test_generation_shapes_rates_and_per_item_determinism(trained) -> None:
 def test_stochastic_sampling_depends_on_the_seed_only(trained) -> None:
     _, model, dataset, _ = trained
     clip = dataset[6]
-    saved = model._sampler
-    model._sampler = build_component(
+    saved = dict(model._samplers)
+    ddpm = build_component(
         {"name": "cfg", "num_inference_steps": 4, "scheduler": {"name": "ddpm"}}, "samplers"
     )
+    model._samplers.update(music=ddpm, motion=ddpm)
     try:
         batch = model.music_to_motion([clip.audio[:16000], clip.audio[:8000]], 16000, [3, 4])
         torch.manual_seed(123)  # the global RNG plays no part
@@ -290,26 +284,32 @@ def test_stochastic_sampling_depends_on_the_seed_only(trained) -> None:
         music = model.motion_to_music([clip.motion[:60], clip.motion[:30]], 60.0, [1, 2])
         music_alone = model.motion_to_music([clip.motion[:60]], 60.0, [1])[0]
     finally:
-        model._sampler = saved
+        model._samplers.clear()
+        model._samplers.update(saved)
     np.testing.assert_allclose(alone, batch[0], atol=1e-4)
     assert not np.allclose(alone, other, atol=1e-3)
     np.testing.assert_allclose(music_alone, music[0], atol=1e-4)
 
 
-def test_each_direction_has_its_own_guidance_scale(trained) -> None:
+def test_each_direction_can_have_its_own_sampler(trained) -> None:
     _, model, dataset, _ = trained
     clip = dataset[6]
     audio, motion = clip.audio[:16000], clip.motion[:60]
-    default = model.music_to_motion([audio], 16000, [3])[0]  # sampler.guidance_scale
+    default = model.music_to_motion([audio], 16000, [3])[0]  # cfg.sampler
     explicit = model.music_to_motion([audio], 16000, [3], guidance_scale=5.0)[0]
     music_default = model.motion_to_music([motion], 60.0, [1])[0]
-    model.cfg.motion_guidance_scale = 5.0
+    saved = (model.cfg.motion_sampler, dict(model._samplers))
+    model.cfg.motion_sampler = {**dict(model.cfg.sampler), "guidance_scale": 5.0}
+    model._samplers.clear()
     try:
+        assert model.sampler_for("motion").cfg.guidance_scale == 5.0
         np.testing.assert_allclose(model.music_to_motion([audio], 16000, [3])[0], explicit, atol=1e-5)
         assert not np.allclose(explicit, default, atol=1e-3)
         np.testing.assert_allclose(model.motion_to_music([motion], 60.0, [1])[0], music_default, atol=1e-5)
     finally:
-        model.cfg.motion_guidance_scale = None
+        model.cfg.motion_sampler = saved[0]
+        model._samplers.clear()
+        model._samplers.update(saved[1])
 
 
 def test_save_load_round_trip_and_strict_loading(trained, tmp_path: Path) -> None:
@@ -432,6 +432,7 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert paper["#7"].method.evaluation.beat_bin_seconds == 1.0  # App. B.4-B.5: one-second bins
     assert enc.motion.padding_mode == "zeros"
     assert paper["#7"].method.train_diffusion.lr_schedule == "constant"  # App. B.3: warm-up, no decay
+    assert paper["#7"].method.motion_sampler is None and paper["#7"].method.sampler.num_inference_steps == 50
     assert not paper["#7"].method.music_backbone.get("cond_add", False)  # the paper's token pathway only
     cpu = resolve_row_configs(spec7, TableArgs("cpu", "synth", Path("x"), ["#7"], [], False, "none", []))[
         "#7"
@@ -439,4 +440,5 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert cpu.method.evaluation.beat_bin_seconds == 0.25 and cpu.method.vae_loss.velocity_weight == 10.0
     assert cpu.method.encoder.motion.padding_mode == "replicate" and cpu.dataset.attack == 0.3
     assert cpu.method.train_diffusion.lr_schedule == "cosine"
+    assert cpu.method.motion_sampler.scheduler.name == "ddim" and cpu.method.sampler.scheduler.name == "ddpm"
     assert cpu.method.music_backbone.cond_add and cpu.method.motion_backbone.cond_add

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -124,9 +123,9 @@ class MoMuConfig:
         window_hop_seconds: hop between training windows.
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
-        music_guidance_scale, motion_guidance_scale: CFG scale w of Eq. 7 for motion→music (θ_a) and
-            music→motion (θ_m); ``null`` uses ``sampler.guidance_scale``. The paper gives no value
-            for either; a call's own ``guidance_scale`` argument overrides both.
+        music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
+            (θ_m) when the two directions should differ (steps, scheduler, guidance scale w of Eq. 7,
+            which the paper does not give); ``null`` uses ``sampler``.
         train_music_vae, train_motion_vae, train_diffusion: engine settings of the three stages.
         evaluation: :class:`MoMuEvalConfig`.
     """
@@ -148,8 +147,8 @@ class MoMuConfig:
     window_hop_seconds: float = 2.0
     bone_correction: bool = False
     bone_ratio: float = 1.3
-    music_guidance_scale: float | None = None
-    motion_guidance_scale: float | None = None
+    music_sampler: Any = None
+    motion_sampler: Any = None
     train_music_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_motion_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_diffusion: TrainConfig = field(default_factory=lambda: TrainConfig(steps=2000, lr=1e-4))
@@ -192,10 +191,6 @@ def _check_config(cfg: MoMuConfig) -> None:
         )
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
-    for name in ("music_guidance_scale", "motion_guidance_scale"):
-        scale = getattr(cfg, name)
-        if scale is not None and not math.isfinite(float(scale)):
-            raise ValueError(f"method.{name} must be a finite number or null, got {scale!r}")
 
 
 class MoMu:
@@ -466,16 +461,24 @@ class MoMuModel:
         self.skeleton = skeleton
         self.bone_lengths = np.asarray(bone_lengths, dtype=np.float64)
         self.backbone_nodes = backbone_nodes
-        self._sampler: Any = None
+        self._samplers: dict[str, Any] = {}
         self._joint: Any = None
         self._vocoder: Any = None
 
     # ---------------------------------------------------------------- lazily built parts
     @property
     def sampler(self) -> Any:
-        if self._sampler is None:
-            self._sampler = build_component(self.cfg.sampler, "samplers")
-        return self._sampler
+        """The default cross-modal sampler (``cfg.sampler``)."""
+        return self.sampler_for("default")
+
+    def sampler_for(self, direction: str) -> Any:
+        """The sampler of ``"music"`` (motion→music), ``"motion"`` (music→motion) or ``"default"``."""
+        if direction not in self._samplers:
+            node = {"music": self.cfg.music_sampler, "motion": self.cfg.motion_sampler}.get(direction)
+            self._samplers[direction] = build_component(
+                node if node is not None else self.cfg.sampler, "samplers"
+            )
+        return self._samplers[direction]
 
     @property
     def joint_sampler(self) -> Any:
@@ -565,18 +568,19 @@ class MoMuModel:
     # ---------------------------------------------------------------- generation
     def _cfg_sample(
         self,
-        backbone: nn.Module,
+        direction: str,
         conds: Sequence[torch.Tensor],
         seeds: Sequence[int],
         guidance_scale: float | None,
     ) -> list[torch.Tensor]:
+        backbone = self.music_backbone if direction == "music" else self.motion_backbone
         if len(conds) != len(seeds):
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
         d = self.latent_channels
         items = [_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)]
         noise, x_mask = _pad([n for n, _ in items])
         cond, cond_mask = _pad(list(conds))
-        z = self.sampler.sample(
+        z = self.sampler_for(direction).sample(
             backbone,
             noise,
             cond,
@@ -595,10 +599,12 @@ class MoMuModel:
         *,
         guidance_scale: float | None = None,
     ) -> list[np.ndarray]:
-        """Music→motion (θ_m, CFG Eq. 7): one ``(T, J, D)`` motion at ``rates.motion_fps`` per waveform."""
+        """Music→motion (θ_m, CFG Eq. 7): one ``(T, J, D)`` motion at ``rates.motion_fps`` per waveform.
+
+        ``guidance_scale`` overrides the sampler's (``motion_sampler``, else ``sampler``).
+        """
         conds = [self.encode_music(a, sample_rate) for a in audios]
-        scale = self.cfg.motion_guidance_scale if guidance_scale is None else guidance_scale
-        return [self.decode_motion(z) for z in self._cfg_sample(self.motion_backbone, conds, seeds, scale)]
+        return [self.decode_motion(z) for z in self._cfg_sample("motion", conds, seeds, guidance_scale)]
 
     def motion_to_music(
         self,
@@ -608,11 +614,13 @@ class MoMuModel:
         *,
         guidance_scale: float | None = None,
     ) -> list[np.ndarray]:
-        """Motion→music (θ_a, CFG Eq. 7; mel decoded and vocoded): waveforms at ``rates.sample_rate``."""
+        """Motion→music (θ_a, CFG Eq. 7; mel decoded and vocoded): waveforms at ``rates.sample_rate``.
+
+        ``guidance_scale`` overrides the sampler's (``music_sampler``, else ``sampler``).
+        """
         rates = [float(fps)] * len(motions) if isinstance(fps, (int, float)) else [float(f) for f in fps]
         conds = [self.encode_motion(m, f) for m, f in zip(motions, rates)]
-        scale = self.cfg.music_guidance_scale if guidance_scale is None else guidance_scale
-        return [self.decode_music(z) for z in self._cfg_sample(self.music_backbone, conds, seeds, scale)]
+        return [self.decode_music(z) for z in self._cfg_sample("music", conds, seeds, guidance_scale)]
 
     @torch.no_grad()
     def joint(self, seconds: Sequence[float], seeds: Sequence[int]) -> list[tuple[np.ndarray, np.ndarray]]:
