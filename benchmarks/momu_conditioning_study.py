@@ -59,6 +59,29 @@ Second round (12 held-out crops; ``f1_025s`` = kinematic-beat F1 in 0.25-s bins,
   plain DiT, 36.7 vs 37.7 with ``cond_add``; shuffled real music scores 44.4, the music VAE's own
   reconstructions 100 (the mel VAE + Griffin-Lim keep every onset). With 4000 diffusion steps θ_a
   follows its motion (24.4 right vs 12.8 shuffled condition) but places fewer onsets overall.
+
+Third round (full ``cpu`` preset data, Table 7 #7's stages, 18 held-out 4-s crops = 9 test + 9 val
+clips; F1 in 0.25-s bins; shuffled ground truth: music 42.1, motion 45.0):
+
+* θ_a with ``cond_add`` + aligned positions (as θ_m) and 4000 diffusion steps with cosine decay
+  follows its motion: music F1 41.3 from the right motion vs 22.4 from another clip's motion
+  (1500 steps, plain θ_a: 30.6 vs 23.7). Its music lands onsets in the right bins (precision 56-63)
+  but only a third of them (recall 32; 3.6 detected onsets per clip vs 6.1): the hits it does not
+  place are simply absent from the mel, not weak (Griffin-Lim 16 or 64 iterations: identical
+  scores). CFG scale 1.5 / 3 / 5: 33.7 / 41.3 / 42.7.
+* θ_m: 1000-step DDPM 45.0 and 47.1 (two noise seeds) vs 200-step DDIM clipped to ±4: 52.4 and 50.1
+  (shuffled condition 45.3 and 46.2); DDIM keeps more kinematic beats (recall 69 vs 51-57).
+  Motion→music with DDIM-200 drops to 28.0. But on the model of the Table 7 run that followed
+  (same config, trained with two threads), DDIM-200 scored 41.0 vs 52.1 shuffled condition and
+  DDPM 52.9 vs 41.0 (onset F1 30.2 vs 14.6): one model's sampler preference did not carry over,
+  so the cpu preset keeps DDPM for both directions (``motion_sampler`` stays available).
+* Evaluation noise: the same weights scored music F1 52.5 and 38.5 on the 9 test clips when the
+  DDPM step noise came from the global RNG (it depended on what ran before); samples now depend on
+  their seed only (per-item generators).
+* The motion VAE's own reconstructions score 28-40 (ground truth 68): retraining the same config
+  moves it by ±5, 2400 instead of 1200 steps 37.7, cosine decay 36.9, base width 32 27.7. No lag:
+  the speed profiles correlate best at shift 0 and matched beats are 0 ms off (median).
+* 160 instead of 80 clips (18 test clips): music 38.2 vs 38.3 shuffled, motion 46.6 vs 47.7.
 """
 
 from __future__ import annotations
