@@ -81,6 +81,18 @@ def test_publish_copies_results_and_keeps_a_hand_written_readme(tmp_path: Path) 
     assert readme.read_text() == "# hand-written\n"
 
 
+def test_publish_removes_plots_of_models_no_longer_in_the_run(tmp_path: Path) -> None:
+    src, dst = tmp_path / "out" / "table", tmp_path / "reproductions" / "table"
+    (src / "models" / "new").mkdir(parents=True)
+    (src / "results.json").write_text(json.dumps(result()))
+    (src / "models" / "new" / "beats.png").write_bytes(b"png")
+    dst.mkdir(parents=True)
+    (dst / "beats-old.png").write_bytes(b"stale")
+    (dst / "figure.png").write_bytes(b"other plots are not touched")
+    publish(src, dst, "python recipes/x.py")
+    assert {p.name for p in dst.glob("*.png")} == {"beats-new.png", "figure.png"}
+
+
 def test_missing_results_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match="results.json"):
         main([str(tmp_path), str(tmp_path / "dst"), "--command", "x"])

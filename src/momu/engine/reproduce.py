@@ -110,8 +110,12 @@ def publish(src: Path, dst: Path, command: str) -> Path:
     for path in src.iterdir():
         if path.is_file() and path.suffix in _COPIED:
             shutil.copy2(path, dst / path.name)
-    for plot in sorted((src / "models").glob("*/beats.png")):
-        shutil.copy2(plot, dst / f"beats-{plot.parent.name}.png")
+    plots = {f"beats-{plot.parent.name}.png": plot for plot in sorted((src / "models").glob("*/beats.png"))}
+    for stale in dst.glob("beats-*.png"):  # plots of models an earlier run published
+        if stale.name not in plots:
+            stale.unlink()
+    for name, plot in plots.items():
+        shutil.copy2(plot, dst / name)
     readme = dst / "README.md"
     if readme.is_file() and not readme.read_text().startswith(MARKER):
         readme = dst / "REPRODUCE.md"  # keep a hand-written README; put the summary beside it
