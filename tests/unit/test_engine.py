@@ -43,19 +43,19 @@ def _accelerator(tmp: Path):
     return make_accelerator(RunConfig(tracker="none"), tmp, "test", {})
 
 
+def _train(acc, root: Path, cfg: TrainConfig = CFG, *, model_seed: int = 0, loss_fn=_loss, **kw) -> nn.Module:
+    """``train_stage`` on the toy regression data with a fresh ``_model(model_seed)``."""
+    kw.setdefault("name", "run")
+    return train_stage(
+        acc, model=_model(model_seed), dataset=_data(), loss_fn=loss_fn, cfg=cfg, checkpoint_root=root, **kw
+    )
+
+
 @pytest.mark.parametrize("schedule", ["constant", "cosine"])
 def test_resume_after_interruption_is_bit_identical(tmp_path: Path, schedule: str) -> None:
     cfg = dataclasses.replace(CFG, lr_schedule=schedule, warmup_steps=2)
     acc = _accelerator(tmp_path)
-    reference = train_stage(
-        acc,
-        name="ref",
-        model=_model(0),
-        dataset=_data(),
-        loss_fn=_loss,
-        cfg=cfg,
-        checkpoint_root=tmp_path / "a",
-    )
+    reference = _train(acc, tmp_path / "a", cfg, name="ref")
 
     calls = {"n": 0}
 
@@ -66,27 +66,10 @@ def test_resume_after_interruption_is_bit_identical(tmp_path: Path, schedule: st
         return _loss(model, batch)
 
     with pytest.raises(KeyboardInterrupt):
-        train_stage(
-            acc,
-            name="run",
-            model=_model(0),
-            dataset=_data(),
-            loss_fn=crashing_loss,
-            cfg=cfg,
-            checkpoint_root=tmp_path / "b",
-        )
+        _train(acc, tmp_path / "b", cfg, loss_fn=crashing_loss)
     assert latest_checkpoint(tmp_path / "b").name == "step_00000004"
     torch.manual_seed(1234)  # a resumed process starts with arbitrary RNG state and weights
-    resumed = train_stage(
-        acc,
-        name="run",
-        model=_model(99),
-        dataset=_data(),
-        loss_fn=_loss,
-        cfg=cfg,
-        checkpoint_root=tmp_path / "b",
-        resume=True,
-    )
+    resumed = _train(acc, tmp_path / "b", cfg, model_seed=99, resume=True)
     for (name, a), (_, b) in zip(reference.state_dict().items(), resumed.state_dict().items()):
         assert torch.equal(a, b), name
 
@@ -124,15 +107,7 @@ def test_lr_factor_warms_up_then_follows_the_schedule() -> None:
 def test_unknown_lr_schedule_fails_before_training(tmp_path: Path) -> None:
     cfg = dataclasses.replace(CFG, lr_schedule="linear")
     with pytest.raises(ValueError, match="lr_schedule"):
-        train_stage(
-            _accelerator(tmp_path),
-            name="bad",
-            model=_model(0),
-            dataset=_data(),
-            loss_fn=_loss,
-            cfg=cfg,
-            checkpoint_root=tmp_path / "c",
-        )
+        _train(_accelerator(tmp_path), tmp_path / "c", cfg, name="bad")
     assert not (tmp_path / "c").exists()
 
 
@@ -147,15 +122,7 @@ def test_sigterm_writes_a_checkpoint_then_raises(tmp_path: Path) -> None:
         return _loss(model, batch)
 
     with pytest.raises(Preempted, match="--resume") as err:
-        train_stage(
-            acc,
-            name="pre",
-            model=_model(0),
-            dataset=_data(),
-            loss_fn=loss_then_sigterm,
-            cfg=CFG,
-            checkpoint_root=tmp_path,
-        )
+        _train(acc, tmp_path, name="pre", loss_fn=loss_then_sigterm)
     assert err.value.checkpoint.name == "step_00000003"
     assert (err.value.checkpoint / "model.safetensors").is_file()
     assert signal.getsignal(signal.SIGTERM) is not None  # handler restored, process still alive
@@ -164,25 +131,14 @@ def test_sigterm_writes_a_checkpoint_then_raises(tmp_path: Path) -> None:
 def test_resume_with_completed_stage_trains_nothing(tmp_path: Path) -> None:
     acc = _accelerator(tmp_path)
     cfg = TrainConfig(steps=4, batch_size=4)
-    first = train_stage(
-        acc, name="s", model=_model(0), dataset=_data(), loss_fn=_loss, cfg=cfg, checkpoint_root=tmp_path
-    )
+    first = _train(acc, tmp_path, cfg, name="s")
     calls = {"n": 0}
 
     def counting(model: nn.Module, batch: list[torch.Tensor]) -> torch.Tensor:
         calls["n"] += 1
         return _loss(model, batch)
 
-    again = train_stage(
-        acc,
-        name="s",
-        model=_model(5),
-        dataset=_data(),
-        loss_fn=counting,
-        cfg=cfg,
-        checkpoint_root=tmp_path,
-        resume=True,
-    )
+    again = _train(acc, tmp_path, cfg, name="s", model_seed=5, loss_fn=counting, resume=True)
     assert calls["n"] == 0
     assert all(torch.equal(a, b) for a, b in zip(first.parameters(), again.parameters()))
 

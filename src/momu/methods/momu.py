@@ -426,6 +426,36 @@ def _pad(items: Sequence[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | No
     return out, mask
 
 
+def sample_items(
+    sampler: Any,
+    backbone: nn.Module,
+    conds: Sequence[torch.Tensor],
+    seeds: Sequence[int],
+    channels: int,
+    guidance_scale: float | None = None,
+) -> list[torch.Tensor]:
+    """One CFG sample ``(T_i, channels)`` per condition ``(T_i, C)``, in one padded batch.
+
+    Each item's initial noise and stochastic steps come from a generator seeded by its seed, so a
+    sample depends on its seed and condition only.
+    """
+    if len(conds) != len(seeds):
+        raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
+    items = [_item_noise(c.shape[0], channels, s) for c, s in zip(conds, seeds)]
+    noise, x_mask = _pad([n for n, _ in items])
+    cond, cond_mask = _pad(list(conds))
+    z = sampler.sample(
+        backbone,
+        noise,
+        cond,
+        x_mask=x_mask,
+        cond_mask=cond_mask,
+        guidance_scale=guidance_scale,
+        generator=[g for _, g in items],
+    )
+    return [z[i, : c.shape[0]] for i, c in enumerate(conds)]
+
+
 class MoMuModel:
     """A trained MoMu-Diffusion: BiCoR-VAE, θ_a, θ_m, normalisers; generation in every direction.
 
@@ -574,22 +604,9 @@ class MoMuModel:
         guidance_scale: float | None,
     ) -> list[torch.Tensor]:
         backbone = self.music_backbone if direction == "music" else self.motion_backbone
-        if len(conds) != len(seeds):
-            raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
-        d = self.latent_channels
-        items = [_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)]
-        noise, x_mask = _pad([n for n, _ in items])
-        cond, cond_mask = _pad(list(conds))
-        z = self.sampler_for(direction).sample(
-            backbone,
-            noise,
-            cond,
-            x_mask=x_mask,
-            cond_mask=cond_mask,
-            guidance_scale=guidance_scale,
-            generator=[g for _, g in items],
+        return sample_items(
+            self.sampler_for(direction), backbone, conds, seeds, self.latent_channels, guidance_scale
         )
-        return [z[i, : c.shape[0]] for i, c in enumerate(conds)]
 
     def music_to_motion(
         self,

@@ -44,7 +44,7 @@ from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.trainer import TrainConfig
 from momu.features.preprocess import Normalizer
 from momu.losses.diffusion import DiffusionLoss
-from momu.methods.momu import MoMu, _item_noise, _pad
+from momu.methods.momu import MoMu, sample_items
 from momu.methods.momu_data import MoMuNormalizers, Rates, WindowDataset, select_split
 from momu.methods.momu_stages import stage_step, train_music_vae_stage
 
@@ -195,20 +195,10 @@ class LearnableMotionToMusic:
                 f"motion_to_music: {len(motions)} motions, {len(fps)} frame rates, {len(seeds)} seeds"
             )
         conds = [self.condition(m, f) for m, f in zip(motions, fps)]
-        d = int(self.vae.latent_channels)
-        items = [_item_noise(c.shape[0], d, s) for c, s in zip(conds, seeds)]
-        noise, x_mask = _pad([n for n, _ in items])
-        cond, cond_mask = _pad(conds)
-        z = self.sampler.sample(
-            self.stage.backbone,
-            noise,
-            cond,
-            x_mask=x_mask,
-            cond_mask=cond_mask,
-            guidance_scale=guidance_scale,
-            generator=[g for _, g in items],
+        zs = sample_items(
+            self.sampler, self.stage.backbone, conds, seeds, int(self.vae.latent_channels), guidance_scale
         )
-        return [self.decode_music(z[i, : c.shape[0]]) for i, c in enumerate(conds)]
+        return [self.decode_music(z) for z in zs]
 
 
 def fit_learnable_motion_to_music(
