@@ -117,3 +117,10 @@ def test_overrides_may_sit_between_flags() -> None:
 
     args = parse_table_args(SPEC, ["method.width=3", "--preset", "smoke", "seed=2", "--rows", "#1"])
     assert args.overrides == ["method.width=3", "seed=2"] and args.preset == "smoke" and args.rows == ["#1"]
+
+
+def test_a_bare_row_number_names_the_hash_row() -> None:
+    from momu.engine.table import parse_table_args
+
+    assert parse_table_args(SPEC, ["--rows", "2,#1"]).rows == ["#2", "#1"]
+    assert parse_table_args(SPEC, ["--rows", "9"]).rows == ["9"]  # still unknown, reported as given

@@ -147,7 +147,9 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         "--data", default="synth", help="'synth' (built-in synth_dance) or a dataset root folder"
     )
     parser.add_argument("--out", type=Path, default=Path("outputs"), help="output folder (default: outputs/)")
-    parser.add_argument("--rows", type=_csv, default=None, help="comma-separated row ids (default: all)")
+    parser.add_argument(
+        "--rows", type=_csv, default=None, help="comma-separated row ids, e.g. #1,#7 or 1,7 (default: all)"
+    )
     parser.add_argument(
         "--seeds",
         type=lambda s: [int(x) for x in _csv(s)],
@@ -167,12 +169,18 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         preset=ns.preset,
         data=ns.data,
         out=ns.out,
-        rows=ns.rows or [r.id for r in spec.rows],
+        rows=[_row_id(spec, r) for r in ns.rows] if ns.rows else [r.id for r in spec.rows],
         seeds=ns.seeds or [],
         resume=ns.resume,
         tracker=ns.tracker,
         overrides=list(ns.overrides),
     )
+
+
+def _row_id(spec: TableSpec, given: str) -> str:
+    """``given`` as a row id; a bare number names the ``#``-prefixed row (``--rows 7`` is ``#7``)."""
+    ids = {r.id for r in spec.rows}
+    return f"#{given}" if given not in ids and f"#{given}" in ids else given
 
 
 def _data_overrides(spec: TableSpec, data: str) -> list[str]:

@@ -154,6 +154,11 @@ class MoMuConfig:
     train_diffusion: TrainConfig = field(default_factory=lambda: TrainConfig(steps=2000, lr=1e-4))
     evaluation: MoMuEvalConfig = field(default_factory=MoMuEvalConfig)
 
+    def sampler_node(self, direction: str) -> Any:
+        """The sampler node of ``"music"`` (motion→music), ``"motion"`` (music→motion) or ``"default"``."""
+        node = {"music": self.music_sampler, "motion": self.motion_sampler}.get(direction)
+        return node if node is not None else self.sampler
+
 
 def _plain(node: Any) -> Any:
     plain = to_container(node) if not isinstance(node, (dict, list, str, type(None))) else node
@@ -504,10 +509,7 @@ class MoMuModel:
     def sampler_for(self, direction: str) -> Any:
         """The sampler of ``"music"`` (motion→music), ``"motion"`` (music→motion) or ``"default"``."""
         if direction not in self._samplers:
-            node = {"music": self.cfg.music_sampler, "motion": self.cfg.motion_sampler}.get(direction)
-            self._samplers[direction] = build_component(
-                node if node is not None else self.cfg.sampler, "samplers"
-            )
+            self._samplers[direction] = build_component(self.cfg.sampler_node(direction), "samplers")
         return self._samplers[direction]
 
     @property

@@ -16,7 +16,8 @@ generation on them with a learnable motion encoder, whose architecture is derive
    and the encoder pools ``k`` frames into one, so its output has one condition frame per latent
    frame; its width is the latent width ``d``.
 
-Generation (:class:`LearnableMotionToMusic`) samples with the method's ``sampler`` (CFG, Eq. 7),
+Generation (:class:`LearnableMotionToMusic`) samples with the method's motion→music sampler
+(``music_sampler``, else ``sampler``; CFG, Eq. 7),
 decodes the mel with the stage-1 VAE and vocodes it with the method's ``vocoder``.
 
 Shapes: motion ``(T, J, D)`` at the clip's fps → aligned to ``n_z · k`` frames
@@ -303,7 +304,7 @@ def fit_learnable_motion_to_music(
         stage=trained.to("cpu").eval(),
         norms=norms,
         rates=rates,
-        sampler=build_component(c.sampler, "samplers"),
+        sampler=build_component(c.sampler_node("music"), "samplers"),  # motion→music, like θ_a
         vocoder=build_component(c.vocoder, "vocoders"),
         frames_per_latent=frames_per_latent,
     )

@@ -9,11 +9,12 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
 * ``cpu`` — the YAML as is: synth_dance (openpose14, 80 clips of 8 s, moves starting sharply on the
   beat), 4 s windows, small VAEs (latent 16, no attention, latent rate 15.6 Hz, replicate padding,
-  no GAN term; sum-reduced reconstruction with a velocity term for the motion VAE) and DiTs (width
-  64, depth 2), 120 music-VAE, 1200 motion-VAE and 4000 diffusion steps (cosine learning-rate
-  decay) per row; θ_a and θ_m with the frame-aligned condition shortcut (``cond_add``, aligned
-  positions); CFG sampling with 1000-step DDPM clipped to ±4; F1 columns in 0.25-s beat bins
-  (one-second bins saturate on this music).
+  no GAN term; sum-reduced reconstruction with a velocity term for the motion VAE) and DiTs (θ_m
+  width 64, depth 2; θ_a width 128, depth 4), 120 music-VAE, 1200 motion-VAE and 4000 diffusion
+  steps (cosine learning-rate decay) per row; θ_a and θ_m with the frame-aligned condition shortcut
+  (``cond_add``, aligned positions); CFG sampling with 1000-step DDPM clipped to ±4, guidance scale
+  5 for motion→music and 3 for music→motion; F1 columns in 0.25-s beat bins (one-second bins
+  saturate on this music).
 * ``paper`` — MoMu Tables 8–9 and App. A.2/B.3: Table 8 VAEs at the published size (latent 20,
   base width 192, 2 residual blocks, [1,2,4], 3 attention layers, kernel 5), Table 9 DiT (hidden
   576, 8 heads, 4 blocks, condition embedding 1024, kernel 5), AdamW 2e-4 for BiCoR-VAE and 1.6e-5
@@ -61,6 +62,7 @@ PRESETS: dict[str, list[str]] = {
         f"method.music_backbone={_TINY_DIT}",
         f"method.motion_backbone={_TINY_DIT}",
         "method.sampler.num_inference_steps=4",
+        "method.music_sampler=null",  # both directions sample with `sampler`
         "method.joint_sampler.num_inference_steps=4",
         "method.vocoder.n_iter=2",
         "method.train_music_vae.steps=2",
@@ -92,6 +94,7 @@ PRESETS: dict[str, list[str]] = {
         "method.vae_loss.velocity_weight=0.0",  # MoMu Eq. 10-11: reconstruction + KL only
         "method.sampler.scheduler=ddim",  # MoMu §5.1: 50 DDIM steps (the cpu preset samples with DDPM)
         "method.sampler.num_inference_steps=50",
+        "method.music_sampler=null",  # one sampler for both directions (the paper gives no guidance scale)
         "method.joint_sampler.num_inference_steps=50",
         "method.train_music_vae={steps: 200000, batch_size: 16, lr: 2.0e-4}",
         "method.train_motion_vae={steps: 200000, batch_size: 16, lr: 2.0e-4}",
