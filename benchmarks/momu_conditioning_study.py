@@ -26,6 +26,11 @@ second setting that changes only the denoiser reuses the trained VAEs.
     OMP_NUM_THREADS=2 python benchmarks/momu_conditioning_study.py --out /tmp/momu_study \
         [--set method.motion_backbone.cond_add=true ...]
 
+``--cpu-preset`` trains at the ``cpu`` preset's sizes instead of SMALL (the third and fourth rounds
+below: ``--cpu-preset --eval-clips 18 --threads 1 --music``); ``--music`` also scores motion→music
+(θ_a) from the right and from another clip's motion against the clips' music (beat scores in
+0.25-s bins: F1, precision = BCS, recall = BHS, and detected onsets per clip).
+
 Prints one line per number; nothing is asserted.
 
 Findings at the SMALL size below (30 clips of 6 s, 6 held-out 4 s crops, CPU): ground truth BAS 0.680
@@ -102,6 +107,9 @@ music, 42.1 music F1 and 45.0 motion F1; "shuffled cond." = generated from anoth
 * θ_m (hidden 64, depth 2) on the same three trainings: motion F1 56.0 (45.4), 43.3 (43.4) and 49.5
   (45.0): on seed 1 it ignores its music altogether. Guidance scale 5 instead of 3 on seed 2: 49.7
   (45.9), no change.
+* θ_m also at hidden 128, depth 4 (seed 1's VAEs; diffusion 1.6x slower): motion 48.5 (41.2), it now
+  follows its music, but θ_a, retrained in the same stage, fell to 41.7 (31.0) music F1. One seed
+  only; not adopted (the cpu preset keeps θ_m at hidden 64, depth 2).
 """
 
 from __future__ import annotations
@@ -123,6 +131,7 @@ from momu.engine.context import RunContext
 from momu.methods.momu import MoMuModel
 from momu.methods.momu_data import eval_crops
 from momu.methods.momu_eval import derangement, onset_alignment
+from momu.metrics.loris_scores import onset_times
 from momu.registry import METRICS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -153,6 +162,19 @@ def alignment(truth: Sequence[Clip], motions: Sequence[np.ndarray], fps: float) 
     }
 
 
+def music_alignment(truth: Sequence[Clip], music: Sequence[np.ndarray], sr: int) -> dict[str, float]:
+    """Beat scores (0.25-s bins, percent) of ``music[i]`` against ``truth[i]``'s music; onsets per clip."""
+    clips = [dataclasses.replace(t, audio=a, sample_rate=sr, meta={}) for t, a in zip(truth, music)]
+    scores = METRICS.build("beat_scores", {"bin_seconds": 0.25})(clips, list(truth))
+    onsets = np.mean([onset_times(np.asarray(a), sr).size for a in music])
+    return {
+        "f1": 100.0 * float(scores["beat_scores.f1"]),
+        "precision": 100.0 * float(scores["beat_scores.bcs"]),
+        "recall": 100.0 * float(scores["beat_scores.bhs"]),
+        "onsets_per_clip": float(onsets),
+    }
+
+
 def spread(motions: Sequence[np.ndarray]) -> float:
     """Mean over clips and joints of the per-joint std over time (pixels, both axes pooled)."""
     return float(np.mean([np.asarray(m, dtype=np.float64).std(axis=0).mean() for m in motions]))
@@ -162,6 +184,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("/tmp/momu_conditioning_study"))
     parser.add_argument("--set", nargs="*", default=[], help="extra config overrides (after SMALL)")
+    parser.add_argument(
+        "--cpu-preset", action="store_true", help="train at the cpu preset's sizes (no SMALL overrides)"
+    )
+    parser.add_argument(
+        "--music", action="store_true", help="also score motion→music (θ_a) against the clips' music"
+    )
     parser.add_argument("--eval-clips", type=int, default=6)
     parser.add_argument("--seconds", type=float, default=4.0)
     parser.add_argument("--threads", type=int, default=2)
@@ -169,7 +197,8 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     logging.basicConfig(level=logging.WARNING)
-    cfg = load_config(ROOT / "recipes" / "configs" / "momu.yaml", [*SMALL, *args.set])
+    small = [] if args.cpu_preset else SMALL
+    cfg = load_config(ROOT / "recipes" / "configs" / "momu.yaml", [*small, *args.set])
     method = build_component(cfg.method, "methods")
     dataset = build_component(cfg.dataset, "datasets")
     ctx = RunContext(
@@ -228,6 +257,17 @@ def main() -> None:
     }
     for name, row in rows.items():
         print(f"{name:14s} " + "  ".join(f"{k} {v:6.3f}" for k, v in row.items()))
+    if args.music:
+        real = [np.asarray(t.audio) for t in truth]
+        conditions = true_motion + [true_motion[perm[i]] for i in range(n)]
+        music = model.motion_to_music(conditions, truth[0].fps, seeds)
+        music_rows = {
+            "real_shuffled": music_alignment(truth, [real[perm[i]] for i in range(n)], sr),
+            "right_cond": music_alignment(truth, music[:n], model.rates.sample_rate),
+            "shuffled_cond": music_alignment(truth, music[n:], model.rates.sample_rate),
+        }
+        for name, row in music_rows.items():
+            print(f"music {name:14s} " + "  ".join(f"{k} {v:6.2f}" for k, v in row.items()))
 
 
 if __name__ == "__main__":

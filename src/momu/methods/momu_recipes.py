@@ -118,8 +118,8 @@ COLUMNS = [
 ]
 
 _JOINT = ("method.evaluation.task=joint",)
-# 0.46M parameters per denoiser (the DiT of the cpu preset has 0.17M; at base width 32 the U-Net had 1.7M
-# and trained 3x slower per step than the DiT on a CPU)
+# 0.46M parameters per denoiser (the cpu preset's DiTs have 0.95M (θ_a) and 0.17M (θ_m); at base
+# width 32 the U-Net had 1.7M and trained 3x slower per step than the small DiT on a CPU)
 _UNET = "{base_channels: 16, channel_mults: [1, 2, 4], heads: 4, cross_attention_dim: 64, norm_groups: 8}"
 
 _TABLE7_NOTES = (
