@@ -24,7 +24,7 @@ import torch
 from momu.config import build_component, load_config
 from momu.features.preprocess import Normalizer
 from momu.methods.momu import MoMuModel
-from momu.methods.momu_data import MoMuNormalizers
+from momu.methods.momu.data import MoMuNormalizers
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -5,14 +5,14 @@ denoisers (one diffusion stage trains θ_a and θ_m together, MoMu Eq. 6) — th
 code path (:meth:`momu.methods.momu.MoMu.fit`) on a small ``synth_dance`` (openpose14, 2D pixels),
 then generates motion for the held-out ``test`` clips twice: conditioned on the clip's own music
 (*right*) and on another clip's music (*shuffled*, the derangement π(i) = i+1 of
-:func:`momu.methods.momu_eval.derangement`). Both motions are scored against clip i's music:
+:func:`momu.methods.momu.evaluate.derangement`). Both motions are scored against clip i's music:
 
 * ``bas`` — Beat Align Score (bailando variant, MoFusion Eq. 10, σ = 3 frames at the decoded rate),
   music beats from clip i's audio;
 * ``f1`` — ``kinematic_beat_scores`` F1 (MoMu App. B.5, one-second bins, percent);
 * ``f1_025s`` — the same with 0.25-s bins (``bin_seconds``; one-second bins saturate on this music);
 * ``onset_f1`` — kinematic beats vs music onsets within ±50 ms (percent,
-  :func:`momu.methods.momu_eval.onset_alignment`).
+  :func:`momu.methods.momu.evaluate.onset_alignment`).
 
 A model that follows its condition scores clearly higher with the right music. The ground-truth
 motion (and the ground-truth motion of clip π(i)) give the ceiling and the chance level.
@@ -129,8 +129,8 @@ from momu.data.types import Clip
 from momu.engine import RunConfig, make_accelerator
 from momu.engine.context import RunContext
 from momu.methods.momu import MoMuModel
-from momu.methods.momu_data import eval_crops
-from momu.methods.momu_eval import derangement, onset_alignment
+from momu.methods.momu.data import eval_crops
+from momu.methods.momu.evaluate import derangement, onset_alignment
 from momu.metrics.loris_scores import onset_times
 from momu.registry import METRICS
 

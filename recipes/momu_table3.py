@@ -2,7 +2,7 @@
 
 Options: ``[--data synth|DIR] [--out DIR] [--rows ...] [--seeds ...] [--resume] [key=value ...]``.
 
-See :func:`momu.methods.momu_tables.table3_spec` and docs/recipes_tables_2_6.md; ``--help`` lists the options.
+See :func:`momu.methods.momu.tables.table3_spec` and docs/recipes_tables_2_6.md; ``--help`` lists the options.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from momu.engine.table import run_table
-from momu.methods.momu_tables import table3_spec
+from momu.methods.momu.tables import table3_spec
 
 if __name__ == "__main__":
     configs = Path(__file__).resolve().parent / "configs"

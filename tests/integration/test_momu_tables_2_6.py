@@ -19,19 +19,15 @@ import pytest
 
 from momu.config import ConfigError
 from momu.engine.table import parse_table_args, resolve_row_configs, run_table
-from momu.methods.momu_tables import (
-    PAPER,
-    SHARED_DIR,
+from momu.methods.momu.tables import (
     TABLE_SPECS,
-    beat_percent,
-    check_subsets,
-    subset_config,
     table2_spec,
     table3_spec,
     table4_spec,
     table5_spec,
     table6_spec,
 )
+from momu.methods.momu.tables_setup import PAPER, SHARED_DIR, beat_percent, check_subsets, subset_config
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIGS = REPO / "recipes" / "configs"

@@ -21,9 +21,9 @@ from momu.engine.context import RunContext
 from momu.losses.gan import GANLoss, GANLossConfig, two_step_update
 from momu.losses.vae import VAELoss
 from momu.methods.momu import MoMu, MoMuModel, backbone_node
-from momu.methods.momu_data import MoMuNormalizers, crop_clip, eval_crops
-from momu.methods.momu_eval import beat_onset_f1, derangement, eval_lengths
-from momu.methods.momu_stages import MusicVAEStage
+from momu.methods.momu.data import MoMuNormalizers, crop_clip, eval_crops
+from momu.methods.momu.evaluate import beat_onset_f1, derangement, eval_lengths
+from momu.methods.momu.stages import MusicVAEStage
 from momu.registry import BACKBONES
 
 TINY_VAE = {
@@ -402,7 +402,7 @@ def test_generate_cli_music2motion_and_errors(
 # ---------------------------------------------------------------- recipe specs
 def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     from momu.engine.table import TableArgs, resolve_row_configs
-    from momu.methods.momu_recipes import table7_spec, table10_spec
+    from momu.methods.momu.recipes import table7_spec, table10_spec
 
     spec10 = table10_spec()
     ten = resolve_row_configs(

@@ -1,4 +1,4 @@
-"""The learnable-motion motion→music stage of MoMu Tables 3–4 (momu.methods.momu_learnable)."""
+"""The learnable-motion motion→music stage of MoMu Tables 3–4 (momu.methods.momu.learnable)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from momu.config import build_component
-from momu.methods.momu_learnable import LearnableMotionStage, MotionLatentDataset, learnable_encoder_node
+from momu.methods.momu.learnable import LearnableMotionStage, MotionLatentDataset, learnable_encoder_node
 from momu.registry import BACKBONES, ENCODERS, LOSSES
 
 

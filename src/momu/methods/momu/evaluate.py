@@ -45,8 +45,8 @@ from momu.config import build_component, to_container
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.evaluate import map_gathered
-from momu.methods.momu import MoMu
-from momu.methods.momu_data import eval_crops, select_split
+from momu.methods.momu.data import eval_crops, select_split
+from momu.methods.momu.method import MoMu
 from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
 from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.kinematic_beats import kinematic_beat_bins, kinematic_beat_frames
@@ -367,7 +367,7 @@ def _maybe_plot(ctx: RunContext, folder: Path, truth: Clip, music: Clip, motion:
     if not ctx.accelerator.is_main_process:
         return
     try:
-        from momu.methods.momu_plot import beat_plot
+        from momu.methods.momu.plot import beat_plot
     except ImportError:  # pragma: no cover - matplotlib missing
         return
     try:

@@ -28,11 +28,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from momu.engine.table import Column, Row, TableSpec
-from momu.methods.momu_eval import calibrate_momu, evaluate_momu
+from momu.methods.momu.evaluate import calibrate_momu, evaluate_momu
 
 __all__ = ["BASE_CONFIG", "PRESETS", "COLUMNS", "table7_spec", "table10_spec"]
 
-BASE_CONFIG = Path(__file__).resolve().parents[3] / "recipes" / "configs" / "momu.yaml"
+BASE_CONFIG = Path(__file__).resolve().parents[4] / "recipes" / "configs" / "momu.yaml"
 
 _TINY_VAE = (
     "{latent_channels: 8, base_channels: 8, channel_mult: [1, 2], num_res_blocks: 1, attention_layers: 1,"

@@ -6,7 +6,7 @@ generation on them with a learnable motion encoder, whose architecture is derive
 (MotionBERT). This module is that variant, built from the same parts as the ``momu`` method:
 
 1. **Stage 1 — music VAE** (App. A.2, Eq. 10): exactly the ``momu`` method's stage 1
-   (:class:`~momu.methods.momu_stages.MusicVAEStage`, the same stage key, so a run that also
+   (:class:`~momu.methods.momu.stages.MusicVAEStage`, the same stage key, so a run that also
    trains the full method reuses it).
 2. **Learnable motion→music diffusion** (:class:`LearnableMotionStage`): θ_a (the
    ``music_backbone``) on the standardised music latents ``z_a`` (Eq. 6), conditioned on
@@ -45,9 +45,10 @@ from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.trainer import TrainConfig
 from momu.features.preprocess import Normalizer
 from momu.losses.diffusion import DiffusionLoss
-from momu.methods.momu import MoMu, sample_items
-from momu.methods.momu_data import MoMuNormalizers, Rates, WindowDataset, select_split
-from momu.methods.momu_stages import stage_step, train_music_vae_stage
+from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select_split
+from momu.methods.momu.method import MoMu
+from momu.methods.momu.model import sample_items
+from momu.methods.momu.stages import stage_step, train_music_vae_stage
 
 __all__ = [
     "learnable_encoder_node",

@@ -1,0 +1,151 @@
+"""The ``momu`` method's configuration: :class:`MoMuConfig` (MoMu §3–4) and :class:`MoMuEvalConfig`."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from momu.config import to_container
+from momu.engine.trainer import TrainConfig
+from momu.registry import BACKBONES
+
+__all__ = ["MoMuConfig", "MoMuEvalConfig", "backbone_node", "check_config"]
+
+
+def _node(name: str, **params: Any) -> Callable[[], dict[str, Any]]:
+    return lambda: {"name": name, **params}
+
+
+@dataclass
+class MoMuEvalConfig:
+    """How a trained MoMu is evaluated (not part of any stage key).
+
+    Attributes:
+        task: ``"cross"`` (motion→music and music→motion conditioned on ground truth, Table 7 #1–#4,
+            #7) or ``"joint"`` (both generated together by cross guidance, #5, #6, Table 10).
+        split: dataset split the evaluation clips come from.
+        num_clips: evaluation clips (the first of ``split``).
+        seconds: clip length in seconds (the longest when ``variable_length``).
+        variable_length: each clip gets its own length in ``[min_seconds, seconds]`` (Table 7 #6).
+        min_seconds: shortest length with ``variable_length``.
+        reference_split: split whose crops give the real-vs-real FAD/FID floor of the calibration row.
+        shuffled_condition: also generate motion from a shuffled music condition and report its F1
+            (``motion_f1_shuffled_cond``): the check that motion follows its own music.
+        batch_size: clips generated per batch (per process).
+        extractor_epochs: epochs of the FID/FAD feature extractors (trained once per run).
+        extractor_samples_per_clip: windows/segments per clip per extractor epoch.
+        beat_bin_seconds: bin width of the F1 columns' beat vectors (``beat_scores``,
+            ``kinematic_beat_scores``); 1 s is MoMu's / LORIS's. On music with an onset in every
+            second one-second bins match every pair (ground truth and shuffled both score 100), so
+            the synthetic-data presets use finer bins (see ``recipes/configs/momu.yaml``).
+    """
+
+    task: str = "cross"
+    split: str = "test"
+    num_clips: int = 8
+    seconds: float = 4.0
+    variable_length: bool = False
+    min_seconds: float = 2.0
+    reference_split: str = "val"
+    shuffled_condition: bool = True
+    batch_size: int = 8
+    extractor_epochs: int = 20
+    extractor_samples_per_clip: int = 8
+    beat_bin_seconds: float = 1.0
+
+
+@dataclass
+class MoMuConfig:
+    """The ``momu`` method (MoMu §3–4; Tables 8–9 and App. A.2/B.3 are the ``paper`` preset).
+
+    Component nodes (``{name: ..., **params}``):
+        encoder: the BiCoR-VAE (``bicor_vae``; Table 7 #1/#2 via its ``motion_encoder``/``music_encoder``).
+        discriminator_encoder: the mel discriminator of stage 1 (``null``: no GAN term).
+        vae_loss, gan_loss, contrastive_loss (``null`` = w/o RCL, Table 7 #3), diffusion_loss.
+        scheduler: the training noise schedule (DDPM, T = 1000, linear β 1e-4…0.02).
+        music_backbone: θ_a, motion→music; motion_backbone: θ_m, music→motion (``dit``, or ``unet1d``
+            for Table 7 #4); in/cond channels are derived from the latent width.
+        sampler: cross-modal generation (``cfg``, Eq. 7); joint_sampler: joint generation
+            (``cross_guidance``, Alg. 2, γ); vocoder: mel → waveform (``griffin_lim`` or ``bigvgan``).
+
+    Attributes:
+        sample_rate: music sample rate in Hz (MoMu App. B.2: 16 kHz).
+        window_seconds: training window length (the paper trains on its 10–30 s clips).
+        window_hop_seconds: hop between training windows.
+        bone_correction: apply MoMu App. E's bone-length correction to generated motion.
+        bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
+        music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
+            (θ_m) when the two directions should differ (steps, scheduler, guidance scale w of Eq. 7,
+            which the paper does not give); ``null`` uses ``sampler``.
+        train_music_vae, train_motion_vae, train_diffusion: engine settings of the three stages.
+        evaluation: :class:`MoMuEvalConfig`.
+    """
+
+    encoder: Any = field(default_factory=_node("bicor_vae"))
+    discriminator_encoder: Any = field(default_factory=_node("mel_discriminator"))
+    vae_loss: Any = field(default_factory=_node("vae"))
+    gan_loss: Any = field(default_factory=_node("gan"))
+    contrastive_loss: Any = field(default_factory=_node("rhythmic_contrastive"))
+    diffusion_loss: Any = field(default_factory=_node("diffusion"))
+    scheduler: Any = field(default_factory=_node("ddpm"))
+    music_backbone: Any = field(default_factory=_node("dit"))
+    motion_backbone: Any = field(default_factory=_node("dit"))
+    sampler: Any = field(default_factory=_node("cfg"))
+    joint_sampler: Any = field(default_factory=_node("cross_guidance"))
+    vocoder: Any = field(default_factory=_node("griffin_lim"))
+    sample_rate: int = 16000
+    window_seconds: float = 4.0
+    window_hop_seconds: float = 2.0
+    bone_correction: bool = False
+    bone_ratio: float = 1.3
+    music_sampler: Any = None
+    motion_sampler: Any = None
+    train_music_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
+    train_motion_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
+    train_diffusion: TrainConfig = field(default_factory=lambda: TrainConfig(steps=2000, lr=1e-4))
+    evaluation: MoMuEvalConfig = field(default_factory=MoMuEvalConfig)
+
+    def sampler_node(self, direction: str) -> Any:
+        """The sampler node of ``"music"`` (motion→music), ``"motion"`` (music→motion) or ``"default"``."""
+        node = {"music": self.music_sampler, "motion": self.motion_sampler}.get(direction)
+        return node if node is not None else self.sampler
+
+
+def _plain(node: Any) -> Any:
+    plain = to_container(node) if not isinstance(node, (dict, list, str, type(None))) else node
+    if isinstance(plain, str):
+        return {"name": plain}
+    return plain
+
+
+def backbone_node(node: Any, latent_channels: int) -> dict[str, Any]:
+    """The backbone node with ``in_channels`` / ``cond_channels`` set to the latent width ``d``.
+
+    Only fields the backbone's config dataclass has are set, so a plugin backbone whose config has
+    neither is built as configured.
+    """
+    plain = dict(_plain(node))
+    entry = BACKBONES.get(plain["name"])
+    fields = {f.name for f in dataclasses.fields(entry.config)} if entry.config is not None else set()
+    for key in ("in_channels", "cond_channels"):
+        if key in fields:
+            plain[key] = int(latent_channels)
+    return plain
+
+
+def check_config(cfg: MoMuConfig) -> None:
+    ev = cfg.evaluation
+    if ev.task not in ("cross", "joint"):
+        raise ValueError(f"method.evaluation.task must be 'cross' or 'joint', got {ev.task!r}")
+    if cfg.window_seconds <= 0 or cfg.window_hop_seconds <= 0:
+        raise ValueError("method.window_seconds and method.window_hop_seconds must be > 0")
+    if ev.seconds <= 0 or ev.num_clips < 1 or ev.batch_size < 1:
+        raise ValueError("method.evaluation: seconds, num_clips and batch_size must be positive")
+    if ev.variable_length and not 0 < ev.min_seconds <= ev.seconds:
+        raise ValueError(
+            f"method.evaluation: need 0 < min_seconds <= seconds, got {ev.min_seconds} and {ev.seconds}"
+        )
+    if cfg.bone_ratio <= 0:
+        raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")

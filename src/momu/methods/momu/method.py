@@ -1,0 +1,273 @@
+"""``momu``: the MoMu-Diffusion method (MoMu §3–4, App. A–B) assembled from registered parts.
+
+Training (:meth:`MoMu.fit`, every stage through :meth:`momu.engine.context.RunContext.stage`):
+
+1. **Stage 1 — music VAE** (App. A.2, Eq. 10): ``L_recon + λ1 L_KL + λ2 L_GAN`` with the mel
+   discriminator (λ1 = 1e-5 in ``vae_loss``, λ2 = 0.5 in ``gan_loss``).
+2. **Stage 2 — motion VAE** (Eq. 11): ``L_recon + λ3 L_KL + λ4 L_contrast`` with the music VAE
+   frozen (λ3 = 1e-5, λ4 = 1 in ``contrastive_loss``; ``contrastive_loss: null`` is Table 7 #3).
+3. **Diffusion** (Eq. 6): θ_a (motion→music) and θ_m (music→motion) on the aligned latents,
+   ε-prediction with condition dropout for classifier-free guidance.
+
+Stage keys hold everything that determines a stage's weights — its part configs, its training
+config, the dataset config and window, the seed, and the keys of the stages it builds on — so
+rows of a table that share a stage train it once (Table 7 #1 and #3 reuse stage 1; #5–#7 share
+everything and differ only in how they sample).
+
+Backbone widths are derived, not configured: ``in_channels`` and ``cond_channels`` of both
+backbones are set to the VAE latent width ``d`` when they are fields of the backbone's config
+dataclass (``dit``, ``unet1d`` and any plugin backbone following docs/protocols.md).
+
+Generation (:class:`MoMuModel`): motion→music (``sampler``, CFG Eq. 7; decode the mel and vocode
+it, or decode the waveform), music→motion (CFG; decode keypoints; optional App. E bone-length
+correction), joint (``joint_sampler``, cross guidance Alg. 2 with T_c = γT) and variable length
+(each item its own length; padded batches with masks, MoMu §5.3). A trained model saves as a
+folder of parts (``config.json`` + ``model.safetensors`` each, strict loading) plus JSON
+normalisation statistics (:meth:`MoMuModel.save` / :meth:`MoMuModel.load`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import torch
+
+from momu.config import build_component
+from momu.encoders.bicor_vae import BiCoRVAE
+from momu.engine.context import RunContext, stage_key_hash
+from momu.features.bones import mean_bone_lengths
+from momu.features.preprocess import Normalizer
+from momu.features.skeletons import get_skeleton
+from momu.methods.momu.config import MoMuConfig, _plain, backbone_node, check_config
+from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select_split
+from momu.methods.momu.model import MoMuModel
+from momu.methods.momu.stages import DiffusionStage, MotionVAEStage, stage_step, train_music_vae_stage
+from momu.registry import METHODS
+
+__all__ = ["MoMu", "LatentDataset", "encode_windows", "build_momu"]
+
+log = logging.getLogger(__name__)
+
+
+class MoMu:
+    """The registered ``momu`` method: builds the parts and trains them through a run context."""
+
+    def __init__(self, cfg: MoMuConfig) -> None:
+        check_config(cfg)
+        self.cfg = cfg
+
+    # ---------------------------------------------------------------- parts
+    def build_encoder(self) -> BiCoRVAE:
+        vae = build_component(self.cfg.encoder, "encoders")
+        if not isinstance(vae, BiCoRVAE):
+            raise ValueError(f"method.encoder: expected a BiCoR-VAE, got {type(vae).__name__}")
+        return vae
+
+    def rates(self, vae: BiCoRVAE) -> Rates:
+        return Rates(
+            sample_rate=int(self.cfg.sample_rate),
+            hop_length=256,
+            music_frames_per_latent=int(vae.music_vae.frames_per_latent),
+            motion_frames_per_latent=int(vae.motion_vae.frames_per_latent),
+            music_input=vae.music_input,
+        )
+
+    def backbone_nodes(self, latent_channels: int) -> tuple[dict[str, Any], dict[str, Any]]:
+        return (
+            backbone_node(self.cfg.music_backbone, latent_channels),
+            backbone_node(self.cfg.motion_backbone, latent_channels),
+        )
+
+    # ---------------------------------------------------------------- stage keys
+    def _encoder_parts(self) -> tuple[dict[str, Any], dict[str, Any]]:
+        enc = dict(_plain(self.cfg.encoder))
+        music_keys = ("name", "mel_bins", "music", "music_encoder")
+        music = {k: enc.get(k) for k in music_keys}
+        motion = {k: v for k, v in enc.items() if k not in music_keys[1:]}
+        return music, motion
+
+    def stage_keys(self, data_key: Mapping[str, Any], seed: int) -> dict[str, dict[str, Any]]:
+        """The keys of the three stages (see the module docstring)."""
+        c = self.cfg
+        music, motion = self._encoder_parts()
+        data = {
+            "dataset": dict(data_key),
+            "sample_rate": c.sample_rate,
+            "window_seconds": c.window_seconds,
+            "window_hop_seconds": c.window_hop_seconds,
+        }
+        k1 = {
+            "stage": "music_vae",
+            "data": data,
+            "music_vae": music,
+            "discriminator": _plain(c.discriminator_encoder),
+            "vae_loss": _plain(c.vae_loss),
+            "gan_loss": _plain(c.gan_loss),
+            "train": dataclasses.asdict(c.train_music_vae),
+            "seed": seed,
+        }
+        k2 = {
+            "stage": "motion_vae",
+            "after": stage_key_hash(k1),
+            "data": data,
+            "motion_vae": motion,
+            "vae_loss": _plain(c.vae_loss),
+            "contrastive_loss": _plain(c.contrastive_loss),
+            "train": dataclasses.asdict(c.train_motion_vae),
+            "seed": seed,
+        }
+        k3 = {
+            "stage": "diffusion",
+            "after": stage_key_hash(k2),
+            "data": data,
+            "music_backbone": _plain(c.music_backbone),
+            "motion_backbone": _plain(c.motion_backbone),
+            "scheduler": _plain(c.scheduler),
+            "diffusion_loss": _plain(c.diffusion_loss),
+            "train": dataclasses.asdict(c.train_diffusion),
+            "seed": seed,
+        }
+        return {"music_vae": k1, "motion_vae": k2, "diffusion": k3}
+
+    # ---------------------------------------------------------------- training
+    def fit(self, ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], seed: int) -> MoMuModel:
+        """Train (or reuse) the three stages on the dataset's ``train`` split; returns the model."""
+        c = self.cfg
+        train_idx = select_split(dataset, "train")
+        if not train_idx:
+            raise ValueError("the dataset has no 'train' clips with motion and audio")
+        train_clips = [dataset[i] for i in train_idx]
+        norms = MoMuNormalizers.fit(train_clips, c.sample_rate)
+        torch.manual_seed(seed)  # initial weights are part of the stage (the key holds the seed)
+        vae = self.build_encoder()
+        rates = self.rates(vae)
+        keys = self.stage_keys(data_key, seed)
+        cache: dict[str, WindowDataset] = {}
+
+        def windows() -> WindowDataset:
+            if "w" not in cache:
+                cache["w"] = WindowDataset(
+                    train_clips,
+                    norms,
+                    rates,
+                    c.window_seconds,
+                    c.window_hop_seconds,
+                    need_mel=vae.music_input == "mel",
+                    need_wave=vae.music_input == "waveform",
+                )
+                log.info("momu: %d training windows of %.2f s", len(cache["w"]), cache["w"].window_seconds)
+            return cache["w"]
+
+        # Stage 1: music VAE (+ GAN), Eq. 10.
+        train_music_vae_stage(ctx, vae, c, keys["music_vae"], windows, seed)
+
+        # Stage 2: motion VAE + rhythmic contrastive loss, music VAE frozen, Eq. 11.
+        vae.freeze_music(True)
+        contrastive = (
+            build_component(c.contrastive_loss, "losses") if c.contrastive_loss is not None else None
+        )
+        stage2 = MotionVAEStage(vae, build_component(c.vae_loss, "losses"), contrastive)
+
+        def stage2_data() -> WindowDataset:
+            data = windows()
+            fit_lengths = getattr(vae.motion_vae, "fit_bone_lengths", None)
+            if callable(fit_lengths):  # directional vectors decode with the data's mean bone lengths
+                fit_lengths(torch.stack([item["motion"] for item in data.items]))
+            return data
+
+        ctx.stage(
+            "motion_vae",
+            keys["motion_vae"],
+            stage2,
+            stage2_data,
+            stage_step,
+            dataclasses.replace(c.train_motion_vae, seed=seed),
+        )
+        vae = vae.to("cpu").eval()
+
+        # Diffusion: θ_a and θ_m on the aligned latents, Eq. 6.
+        music_node, motion_node = self.backbone_nodes(vae.latent_channels)
+        music_bb = build_component(music_node, "backbones")
+        motion_bb = build_component(motion_node, "backbones")
+        scheduler = build_component(c.scheduler, "schedulers")
+        loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
+        diffusion = DiffusionStage(music_bb, motion_bb, loss, vae.latent_channels)
+
+        def latent_data() -> LatentDataset:
+            z_music, z_motion = encode_windows(vae, windows())
+            diffusion.set_statistics(z_music, z_motion)
+            return LatentDataset(z_music, z_motion)
+
+        ctx.stage(
+            "diffusion",
+            keys["diffusion"],
+            diffusion,
+            latent_data,
+            stage_step,
+            dataclasses.replace(c.train_diffusion, seed=seed),
+        )
+        diffusion = diffusion.to("cpu").eval()
+        skeleton = str(train_clips[0].skeleton or "")
+        bones = get_skeleton(skeleton).bones if skeleton else ()
+        lengths = (
+            np.asarray(
+                mean_bone_lengths([np.asarray(cl.motion, dtype=np.float64) for cl in train_clips], bones)
+            )
+            if bones
+            else np.zeros(0)
+        )
+        return MoMuModel(
+            cfg=c,
+            vae=vae,
+            music_backbone=diffusion.music_backbone,
+            motion_backbone=diffusion.motion_backbone,
+            norms=norms,
+            latent_music=Normalizer(diffusion.statistic("music_mean"), diffusion.statistic("music_std")),
+            latent_motion=Normalizer(diffusion.statistic("motion_mean"), diffusion.statistic("motion_std")),
+            rates=rates,
+            skeleton=skeleton,
+            bone_lengths=lengths,
+            backbone_nodes=(music_node, motion_node),
+        )
+
+
+class LatentDataset(torch.utils.data.Dataset[dict[str, torch.Tensor]]):
+    """Paired raw latents ``(T_z, d)`` of the training windows."""
+
+    def __init__(self, z_music: torch.Tensor, z_motion: torch.Tensor) -> None:
+        self.z_music, self.z_motion = z_music, z_motion
+
+    def __len__(self) -> int:
+        return int(self.z_music.shape[0])
+
+    def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
+        return {"z_music": self.z_music[index], "z_motion": self.z_motion[index]}
+
+
+@torch.no_grad()
+def encode_windows(
+    vae: BiCoRVAE, data: WindowDataset, batch_size: int = 32
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Posterior means of every window: ``(N, T_z, d)`` music and motion latents (aligned, §3.2)."""
+    vae = vae.eval()
+    key = "wave" if vae.music_input == "waveform" else "mel"
+    device = next(vae.parameters()).device
+    zs_a, zs_m = [], []
+    for start in range(0, len(data), batch_size):
+        items = data.items[start : start + batch_size]
+        music = torch.stack([it[key] for it in items]).to(device)
+        motion = torch.stack([it["motion"] for it in items]).to(device)
+        q_m, q_a, _ = vae.encode_pair(motion, music)
+        zs_a.append(q_a.mode().cpu())
+        zs_m.append(q_m.mode().cpu())
+    return torch.cat(zs_a), torch.cat(zs_m)
+
+
+@METHODS.register("momu", config=MoMuConfig)
+def build_momu(cfg: MoMuConfig, **deps: Any) -> MoMu:
+    """Registry factory: the MoMu-Diffusion method (``fit`` it through a run context)."""
+    return MoMu(cfg)
