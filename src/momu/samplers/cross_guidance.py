@@ -61,6 +61,14 @@ class CrossGuidanceSampler:
         self.scheduler = scheduler
 
     @property
+    def scales(self) -> tuple[float, float]:
+        """Guidance scales ``(s_a, s_m)`` of θ_a and θ_m (each falls back to ``guidance_scale``)."""
+        c = self.cfg
+        music = c.guidance_scale if c.music_guidance_scale is None else c.music_guidance_scale
+        motion = c.guidance_scale if c.motion_guidance_scale is None else c.motion_guidance_scale
+        return float(music), float(motion)
+
+    @property
     def t_c(self) -> int:
         """T_c = γ·T in paper timesteps (rounded)."""
         return int(round(self.cfg.gamma * self.scheduler.num_train_timesteps))
@@ -117,8 +125,7 @@ class CrossGuidanceSampler:
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         run_a = self.scheduler.begin(steps)
         run_m = self.scheduler.begin(steps)
-        s_a = self.cfg.guidance_scale if self.cfg.music_guidance_scale is None else self.cfg.music_guidance_scale
-        s_m = self.cfg.guidance_scale if self.cfg.motion_guidance_scale is None else self.cfg.motion_guidance_scale
+        s_a, s_m = self.scales
         t_c = self.t_c
         b = z_a.shape[0]
         for step_t in run_a.timesteps:
