@@ -111,3 +111,21 @@ def test_bad_row_fails_before_training(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert proc.stderr.strip().endswith("--rows: unknown row #8; valid rows: #1, #2, #3, #4, #5, #6, #7")
     assert not (tmp_path / "momu_table7").exists()
+
+
+def test_parallel_jobs_give_the_same_numbers_as_one_process(tmp_path: Path) -> None:
+    flags = ("--rows", "#7", "--seeds", "0", "1")
+    parallel = subprocess.run(
+        [sys.executable, str(ROOT / "recipes" / "momu_table7.py"), "--preset", "smoke", "--out",
+         str(tmp_path / "jobs"), "--tracker", "none", "--jobs", "2", *flags],
+        capture_output=True, text=True, env=ENV, timeout=600, cwd=ROOT,
+    )  # fmt: skip
+    assert parallel.returncode == 0, parallel.stderr[-3000:]
+    serial = _launch("momu_table7.py", tmp_path / "one", extra=("--threads", "1", *flags))
+    jobs = json.loads((tmp_path / "jobs" / "momu_table7" / "results.json").read_text())
+    assert jobs["provenance"]["jobs"] == 2 and jobs["provenance"]["threads"] == 1
+    assert jobs["rows"][0]["per_seed"] == serial["rows"][0]["per_seed"]
+    assert {p.name for p in (tmp_path / "jobs" / "momu_table7" / "logs").iterdir()} == {
+        "7-seed0.log",
+        "7-seed1.log",
+    }

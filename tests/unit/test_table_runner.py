@@ -157,3 +157,32 @@ def test_cells_print_mean_and_interval_over_seeds(tmp_path: Path) -> None:
     md = (tmp_path / "toy_table" / "results.md").read_text()
     assert "± the half-width of the 95 % Student-t interval" in md
     assert f"| #1 | narrow | {row['metrics']['mse']:.3g} ± {row['interval']['mse']:.3g} |" in md
+
+
+def test_worker_arguments_drop_the_parent_only_flags() -> None:
+    from momu.engine.table_units import Unit, _worker_argv
+
+    argv = ["--preset", "cpu", "--jobs", "2", "--seeds", "0", "1,2", "seed=3", "--rows=#7", "--threads", "1"]
+    assert _worker_argv(argv) == ["--preset", "cpu", "seed=3"]
+    assert Unit.parse("#7:2") == Unit("#7", 2) and Unit("Tc=0.5T", 0).token == "Tc=0.5T:0"
+    with pytest.raises(ValueError, match="ROW:SEED"):
+        Unit.parse("#7")
+
+
+def test_resume_reuses_finished_units_without_evaluating_them(tmp_path: Path) -> None:
+    argv = ["--preset", "smoke", "--out", str(tmp_path), "--tracker", "none", "--rows", "#1"]
+    assert run_table(SPEC, argv) == 0
+    cells = list((tmp_path / "toy_table" / "cells").glob("1-seed0-*.json"))
+    assert len(cells) == 1
+    calls: list[int] = []
+
+    def counting(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, float]:
+        calls.append(seed)
+        return _evaluate(ctx, cfg, seed)
+
+    from dataclasses import replace
+
+    assert run_table(replace(SPEC, evaluate=counting), [*argv, "--resume"]) == 0
+    assert calls == []  # the finished unit came from its cell
+    assert run_table(replace(SPEC, evaluate=counting), argv) == 0
+    assert calls == [0]  # without --resume the unit is evaluated again (its stages are reused)

@@ -22,29 +22,35 @@ from __future__ import annotations
 
 import argparse
 import logging
-import platform
-import resource
-import subprocess
+import os
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 import torch
+from threadpoolctl import threadpool_limits
 from omegaconf import DictConfig
 
 from momu.config import ConfigError, load_config, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
+from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
 from momu.engine.table_report import render_markdown
 from momu.engine.table_results import compare_row, orderings, summarise_seeds
+from momu.engine.table_units import (
+    Unit,
+    cell_path,
+    evaluate_unit,
+    format_duration,
+    merge_timings,
+    run_units_in_workers,
+)
 from momu.engine.trainer import Preempted
 from momu.io import atomic_write_text, write_json
-from momu.registry import BUILTIN_SOURCE, REGISTRIES
 
 __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "parse_table_args"]
 
@@ -101,6 +107,9 @@ class TableArgs:
     resume: bool
     tracker: str
     overrides: list[str]
+    jobs: int = 1
+    threads: int | None = None
+    unit: str | None = None
 
 
 EvaluateFn = Callable[[RunContext, DictConfig, int], "Scores | dict[str, float]"]
@@ -185,6 +194,19 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         default="wandb",
         help="experiment tracker (wandb is offline by default)",
     )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="run the (row, seed) units in N worker processes (single-process runs; default 1)",
+    )
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="torch threads per process (default: 1 with --jobs > 1, else torch's default); recorded",
+    )
+    parser.add_argument("--unit", default=None, help=argparse.SUPPRESS)  # a --jobs worker: ROW:SEED
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for every row")
     ns = parser.parse_intermixed_args(argv)  # overrides may sit before or after the flags
     seeds, overrides = _split_seeds(parser, ns.seeds or [])
@@ -197,6 +219,9 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         resume=ns.resume,
         tracker=ns.tracker,
         overrides=[*overrides, *ns.overrides],
+        jobs=ns.jobs,
+        threads=ns.threads,
+        unit=ns.unit,
     )
 
 
@@ -254,49 +279,6 @@ def resolve_row_configs(spec: TableSpec, args: TableArgs) -> dict[str, DictConfi
     return configs
 
 
-def _git_commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).resolve().parent,
-        )
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            cwd=Path(__file__).resolve().parent,
-        ).stdout.strip()
-        return out.stdout.strip() + ("+dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
-def _versions() -> dict[str, str]:
-    out = {"python": platform.python_version()}
-    for dist in ("momu", "torch", "numpy", "scipy", "librosa", "diffusers", "accelerate", "omegaconf"):
-        try:
-            out[dist] = version(dist)
-        except PackageNotFoundError:
-            out[dist] = "not installed"
-    return out
-
-
-def _plugin_sources() -> dict[str, str]:
-    found: dict[str, str] = {}
-    for kind, registry in REGISTRIES.items():
-        for name, source in registry.sources().items():
-            if source != BUILTIN_SOURCE:
-                found[f"{kind}.{name}"] = source
-    return found
-
-
-def _peak_memory_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def _threads() -> int:
     return int(torch.get_num_threads())
 
@@ -343,48 +325,117 @@ def _calibration_result(per_seed: Mapping[str, list[Scores]]) -> list[dict[str, 
     return out
 
 
+def _check_parallel(args: TableArgs, argv: Sequence[str] | None) -> None:
+    if args.jobs < 1:
+        raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
+    if args.threads is not None and args.threads < 1:
+        raise ConfigError(f"--threads: must be >= 1, got {args.threads}")
+    if args.jobs > 1 and int(os.environ.get("WORLD_SIZE", "1")) > 1:
+        raise ConfigError("--jobs: runs single-process workers; with --num_processes > 1 use --jobs 1")
+    if args.jobs > 1 and argv is not None:
+        raise ConfigError("--jobs: needs the recipe to run as a script (python recipes/<table>.py ...)")
+
+
+def _units(spec: TableSpec, configs: Mapping[str, DictConfig], seeds: Sequence[int]) -> list[Unit]:
+    """Every (row, seed) unit in table order."""
+    return [Unit(row.id, seed) for row in spec.rows if row.id in configs for seed in seeds]
+
+
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     args = parse_table_args(spec, argv)
     try:
+        _check_parallel(args, argv)
         configs = resolve_row_configs(spec, args)
-    except ConfigError as exc:
+        worker = Unit.parse(args.unit) if args.unit else None
+        if worker is not None and worker.row not in configs:
+            raise ConfigError(f"--unit: unknown row {worker.row}")
+    except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"{spec.name}: error: {exc}\n")
         return 2
+    threads = args.threads or (1 if args.jobs > 1 else None)
+    if threads is not None:  # torch and the BLAS under numpy/scipy alike, so numbers follow the count
+        torch.set_num_threads(threads)
+        threadpool_limits(limits=threads)
     first = next(iter(configs.values()))
-    seeds = _seeds(spec, args, first)
+    seeds = [worker.seed] if worker is not None else _seeds(spec, args, first)
     out = args.out / spec.name
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
     run_cfg = RunConfig(
-        tracker=args.tracker,
+        tracker="none" if worker is not None else args.tracker,
         project="momu",
         seed=seeds[0],
         mixed_precision=str(first.get("mixed_precision", "no")),
     )
     accelerator = make_accelerator(run_cfg, out, spec.name, {"preset": args.preset, "rows": args.rows})
     ctx = RunContext(accelerator=accelerator, out_dir=out, resume=args.resume)
+    if worker is not None:  # one unit of a --jobs run: evaluate it into its cell and stop
+        try:
+            evaluate_unit(spec.evaluate, ctx, configs[worker.row], worker, reuse=args.resume)
+        except Preempted as exc:
+            sys.stderr.write(f"{spec.name}: {exc}\n")
+            finish_accelerator(accelerator)
+            return 143
+        finish_accelerator(accelerator)
+        return 0
+    units = _units(spec, configs, seeds)
+    reuse = args.resume
+    if args.jobs > 1:
+        todo = [u for u in units if not (args.resume and cell_path(out, u, configs[u.row]).is_file())]
+        script = str(Path(sys.argv[0]).resolve())
+        failed = run_units_in_workers(
+            script, sys.argv[1:], todo, args.jobs, threads or 1, out / "logs", spec.name
+        )
+        if failed:
+            sys.stderr.write(
+                f"{spec.name}: error: {len(failed)} unit(s) failed: "
+                + ", ".join(f"{u.row} seed {u.seed}" for u in failed)
+                + f"; see {out / 'logs'}\n"
+            )
+            finish_accelerator(accelerator)
+            return 1
+        reuse = True  # every cell was just written by a worker
     rows_out = []
     calibration: dict[str, list[Scores]] = {}
+    stages: dict[str, str] = {}
+    timings: dict[str, dict[str, float]] = {}
     try:
+        done = 0
         for row in spec.rows:
             if row.id not in configs:
                 continue
             cfg = configs[row.id]
             per_seed = []
             for seed in seeds:
+                unit = Unit(row.id, seed)
                 log.info("%s: row %s (%s), seed %d", spec.name, row.id, row.name, seed)
-                per_seed.append(as_scores(spec.evaluate(ctx, cfg, seed)))
+                scores, trained, unit_timings = evaluate_unit(spec.evaluate, ctx, cfg, unit, reuse=reuse)
+                per_seed.append(scores)
+                for folder, how in trained.items():
+                    if stages.get(folder) != "trained":
+                        stages[folder] = how
+                merge_timings(timings, unit_timings)
+                done += 1
+                elapsed = time.time() - start
+                log.info(
+                    "%s: %d/%d units done, %s elapsed, ETA %s",
+                    spec.name, done, len(units), format_duration(elapsed),
+                    format_duration(elapsed / done * (len(units) - done)),
+                )  # fmt: skip
             rows_out.append(_row_result(spec, row, cfg, per_seed))
         if spec.calibrate is not None:
             for seed in seeds:
-                for name, scores in spec.calibrate(ctx, first, seed).items():
-                    calibration.setdefault(name, []).append(as_scores(scores))
+                for name, cal in spec.calibrate(ctx, first, seed).items():
+                    calibration.setdefault(name, []).append(as_scores(cal))
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
         finish_accelerator(accelerator)
         return 143
+    for folder, how in ctx.trained.items():  # stages the calibration trained or reused
+        stages.setdefault(folder, how)
+    merge_timings(timings, ctx.timings)
     result = {
         "table": spec.name,
         "title": spec.title,
@@ -397,17 +448,19 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         "baselines": [{"name": b.name, "paper": dict(b.paper), "re_run": False} for b in spec.baselines],
         "orderings": orderings(rows_out, spec.columns, bootstrap_seed=spec.bootstrap_seed),
         "provenance": {
-            "git_commit": _git_commit(),
-            "versions": _versions(),
-            "plugins": _plugin_sources(),
+            "git_commit": git_commit(),
+            "versions": package_versions(),
+            "plugins": plugin_sources(),
             "num_processes": accelerator.num_processes,
+            "jobs": args.jobs,
             "threads": _threads(),
             "device": str(accelerator.device)
             + (f" ({torch.cuda.get_device_name()})" if torch.cuda.is_available() else ""),
             "argv": list(argv if argv is not None else sys.argv[1:]),
             "wall_time_s": time.time() - start,
-            "peak_memory_mib": _peak_memory_mib(),
-            "stages": dict(ctx.trained),
+            "peak_memory_mib": peak_memory_mib(),
+            "stages": stages,
+            "timings": timings,
         },
     }
     if accelerator.is_main_process:

@@ -212,6 +212,9 @@ def train_stage(
         # resumed mid-epoch would see different noise from the uninterrupted one.
         generator=torch.Generator().manual_seed(cfg.seed),
     )
+    # The data order is a function of the stage's seed, not of the run's first seed: a stage trains
+    # the same whichever other seeds (or --jobs workers) the run has.
+    accelerator.dataloader_config.data_seed = cfg.seed
     model, optimizer, loader = accelerator.prepare(model, optimizer, loader)
     accelerator.gradient_accumulation_steps = cfg.grad_accum
     accelerator.step = 0  # accumulation boundaries count from this stage's first micro-batch
