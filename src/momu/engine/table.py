@@ -31,8 +31,8 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from threadpoolctl import threadpool_limits
 from omegaconf import DictConfig
+from threadpoolctl import threadpool_limits
 
 from momu.config import ConfigError, load_config, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
