@@ -58,8 +58,10 @@ class DiTConfig:
         proj_kernel_size: kernel of the Conv1d input/output projections (Table 9: 5). Table 9's
             "padding 3" with kernel 5 yields T+2 frames; cropping them back to T (as §4 does)
             equals "same" padding 2, which is what is used.
-        max_length: maximum fused length L_x + L_c + 1 (positional-embedding table size).
-            1024 holds 30 s of both MoMu latents (2 × 469 frames + 1).
+        max_length: positional-embedding table size: the longest fused sequence L_x + L_c + 1 with
+            ``positions="concat"`` (MoMu's 31.25 Hz latents: 30 s of both modalities is
+            2 × 937 + 1 = 1875 tokens, so the paper preset uses 2048; 1024 holds 16.3 s), or the
+            longest of L_x and L_c with ``positions="aligned"``.
         pad_to_max: physically pad every batch to ``max_length`` (static shapes, as the paper
             describes). Padded tokens are masked, so this changes cost, never the result.
         time_freq_dim: sinusoidal frequencies fed to the timestep MLP.

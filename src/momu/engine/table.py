@@ -87,6 +87,11 @@ class Row:
     name: str
     overrides: tuple[str, ...] = ()
     paper: Mapping[str, float] = field(default_factory=dict)
+    preset_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def overrides_for(self, preset: str) -> tuple[str, ...]:
+        """The row's overrides under ``preset`` (``preset_overrides[preset]`` replaces ``overrides``)."""
+        return tuple(self.preset_overrides.get(preset, self.overrides))
 
 
 @dataclass(frozen=True)
@@ -125,6 +130,8 @@ class TableSpec:
         title: heading of ``results.md``.
         base_config: the YAML (path) or mapping every row starts from.
         presets: ``preset -> overrides`` (``smoke``, ``cpu``, ``paper``).
+        preset_configs: ``preset -> YAML (path) or mapping`` used instead of ``base_config`` for that
+            preset (the ``paper`` preset is its own complete file, so no cpu value leaks into it).
         columns: the metric cells, in print order.
         rows: the rows momu runs.
         evaluate: ``evaluate(ctx, row_config, seed) -> Scores`` for one row and seed: its cells and
@@ -152,6 +159,7 @@ class TableSpec:
     baselines: Sequence[PaperRow] = ()
     data_key: str = "dataset"
     notes: Sequence[str] = ()
+    preset_configs: Mapping[str, str | Path | Mapping[str, Any]] = field(default_factory=dict)
     default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
     bootstrap_seed: int = 0
 
@@ -273,7 +281,9 @@ def resolve_row_configs(spec: TableSpec, args: TableArgs) -> dict[str, DictConfi
     for row_id in args.rows:
         row = known[row_id]
         try:  # preset and data first, then what makes the row, then the user's overrides
-            configs[row_id] = load_config(spec.base_config, [*preset, *row.overrides, *args.overrides])
+            base = spec.preset_configs.get(args.preset, spec.base_config)
+            overrides = [*preset, *row.overrides_for(args.preset), *args.overrides]
+            configs[row_id] = load_config(base, overrides)
         except ConfigError as exc:
             raise ConfigError(f"row {row_id} ({row.name}): {exc}") from None
     return configs

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -11,7 +12,9 @@ from momu.config import to_container
 from momu.engine.trainer import TrainConfig
 from momu.registry import BACKBONES
 
-__all__ = ["MoMuConfig", "MoMuEvalConfig", "backbone_node", "check_config"]
+log = logging.getLogger(__name__)
+
+__all__ = ["MoMuConfig", "MoMuEvalConfig", "backbone_node", "check_config", "vocoder_node"]
 
 
 def _node(name: str, **params: Any) -> Callable[[], dict[str, Any]]:
@@ -164,3 +167,23 @@ def check_config(cfg: MoMuConfig) -> None:
         )
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
+
+
+def vocoder_node(node: Any) -> dict[str, Any]:
+    """The vocoder node to build: ``bigvgan`` without a local ``checkpoint`` becomes Griffin-Lim.
+
+    MoMu App. A.2 vocodes with BigVGAN, whose weights momu cannot download; a BigVGAN with random
+    weights only makes noise. So when no checkpoint is given the method logs a warning and uses
+    ``griffin_lim`` on the same mel features, and the results name the vocoder actually used.
+    """
+    plain = dict(_plain(node))
+    if plain.get("name") == "bigvgan" and not plain.get("checkpoint"):
+        log.warning(
+            "method.vocoder: bigvgan has no local checkpoint (method.vocoder.checkpoint=PATH); "
+            "vocoding with griffin_lim instead"
+        )
+        fallback: dict[str, Any] = {"name": "griffin_lim"}
+        if plain.get("mel") is not None:
+            fallback["mel"] = plain["mel"]
+        return fallback
+    return plain

@@ -126,7 +126,9 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         extractors = trained_extractors(ctx, dataset, data_key, ev, seed)
     joint = ev.task == "joint"
     bins = float(ev.beat_bin_seconds)
-    scores = Scores(metrics={}, artifacts={"model": str(folder.relative_to(ctx.out_dir))})
+    scores = Scores(
+        metrics={}, artifacts={"model": str(folder.relative_to(ctx.out_dir)), "vocoder": model.vocoder_name}
+    )
     shuffled = _shuffled(truth)
     gen_music: dict[str, list[Clip]] = {}
     gen_motion: dict[str, list[Clip]] = {}

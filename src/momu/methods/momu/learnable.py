@@ -45,6 +45,7 @@ from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.trainer import TrainConfig
 from momu.features.preprocess import Normalizer
 from momu.losses.diffusion import DiffusionLoss
+from momu.methods.momu.config import vocoder_node
 from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select_split
 from momu.methods.momu.method import MoMu
 from momu.methods.momu.model import sample_items
@@ -306,6 +307,6 @@ def fit_learnable_motion_to_music(
         norms=norms,
         rates=rates,
         sampler=build_component(c.sampler_node("music"), "samplers"),  # motion→music, like θ_a
-        vocoder=build_component(c.vocoder, "vocoders"),
+        vocoder=build_component(vocoder_node(c.vocoder), "vocoders"),
         frames_per_latent=frames_per_latent,
     )

@@ -19,7 +19,7 @@ from momu.features.bones import correct_bone_lengths
 from momu.features.preprocess import Normalizer
 from momu.features.skeletons import get_skeleton
 from momu.io import read_json, write_json
-from momu.methods.momu.config import MoMuConfig, _plain
+from momu.methods.momu.config import MoMuConfig, _plain, vocoder_node
 from momu.methods.momu.data import MoMuNormalizers, Rates
 from momu.parts_io import load_part, save_part
 from momu.samplers.base import lengths_to_mask
@@ -140,8 +140,13 @@ class MoMuModel:
     @property
     def vocoder(self) -> Any:
         if self._vocoder is None:
-            self._vocoder = build_component(self.cfg.vocoder, "vocoders")
+            self._vocoder = build_component(vocoder_node(self.cfg.vocoder), "vocoders")
         return self._vocoder
+
+    @property
+    def vocoder_name(self) -> str:
+        """The registered name of the vocoder actually used (see :func:`vocoder_node`)."""
+        return str(vocoder_node(self.cfg.vocoder)["name"])
 
     @property
     def latent_channels(self) -> int:

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from momu.engine.table import Column, PaperRow, Row, TableSpec
-from momu.methods.momu.recipes import BASE_CONFIG
+from momu.methods.momu.recipes import BASE_CONFIG, paper_config
 from momu.methods.momu.tables_eval import (
     calibrate_tables,
     evaluate_motion_to_music,
@@ -77,6 +77,7 @@ def _spec(
         title=title,
         base_config=table_base_config(momu_yaml, tables_yaml, subsets),
         presets=table_presets(subsets),
+        preset_configs={"paper": table_base_config(paper_config(momu_yaml), tables_yaml, subsets)},
         columns=columns,
         rows=[Row("ours", "MoMu-Diffusion (ours)", (), paper["Ours"])],
         evaluate=partial(evaluate, subsets=tuple(subsets)),

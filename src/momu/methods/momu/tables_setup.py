@@ -179,8 +179,6 @@ def table_presets(subsets: Sequence[str]) -> dict[str, list[str]]:
     for preset, overrides in MOMU_PRESETS.items():
         method = [o for o in overrides if not o.startswith("dataset.")]
         data = [o.split(".", 1)[1] for o in overrides if o.startswith("dataset.")]
-        if preset == "paper":  # real data: the synth stand-ins keep their lengths
-            data = [o for o in data if not o.startswith(("min_seconds", "max_seconds"))]
         per_subset = [f"subsets.{s}.synth_dataset.{o}" for s in subsets for o in data]
         out[preset] = [*method, *per_subset, *_EXTRA_PRESETS[preset](subsets)]
     return out
@@ -206,9 +204,15 @@ def _smoke_extra(subsets: Sequence[str]) -> list[str]:
 _EXTRA_PRESETS: dict[str, Callable[[Sequence[str]], list[str]]] = {
     "smoke": _smoke_extra,
     "cpu": lambda subsets: [],
+    # bare names replace the cpu-sized nodes of momu_tables.yaml, then every field is pinned: MotionBERT's
+    # DSTformer sizes (MoMu §5.1 "derived from [51]"), the denoisers' App. B.3 optimiser, and a DiT
+    # length that holds 50 s with concatenated positions (2 x 1562 + 1 = 3125)
     "paper": lambda subsets: [
-        "learnable_encoder={name: learnable_motion, dim_feat: 256, dim_rep: 256, depth: 5, num_heads: 8}",
-        "learnable_train={steps: 400000, batch_size: 16, lr: 1.6e-5, warmup_steps: 10000}",
+        "learnable_encoder=learnable_motion",
+        "learnable_encoder={dim_feat: 256, dim_rep: 256, depth: 5, num_heads: 8, mlp_ratio: 4.0}",
+        "learnable_train={steps: 400000, batch_size: 16, lr: 1.6e-5, warmup_steps: 10000,"
+        " lr_schedule: constant, weight_decay: 0.0}",
+        "learnable_frames_per_latent=1",
         "method.music_backbone.max_length=3200",
     ],
 }
