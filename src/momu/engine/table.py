@@ -146,6 +146,9 @@ class TableSpec:
         default_seeds: ``preset -> seeds`` used without ``--seeds`` (committed reproductions use 3;
             a preset not listed uses the config's ``seed``).
         bootstrap_seed: seed of the comparisons' bootstrap (results are reproducible).
+        check: ``check(row_configs)`` raises :class:`~momu.config.ConfigError` or ``ValueError`` when
+            the data cannot serve the table (a split too small, a skeleton the method cannot take);
+            called once before any tracker, folder or training.
     """
 
     name: str
@@ -160,6 +163,7 @@ class TableSpec:
     data_key: str = "dataset"
     notes: Sequence[str] = ()
     preset_configs: Mapping[str, str | Path | Mapping[str, Any]] = field(default_factory=dict)
+    check: Callable[[Sequence[DictConfig]], None] | None = None
     default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
     bootstrap_seed: int = 0
 
@@ -361,7 +365,9 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         worker = Unit.parse(args.unit) if args.unit else None
         if worker is not None and worker.row not in configs:
             raise ConfigError(f"--unit: unknown row {worker.row}")
-    except (ConfigError, ValueError) as exc:
+        if spec.check is not None and worker is None:
+            spec.check(list(configs.values()))
+    except (ConfigError, ValueError, FileNotFoundError) as exc:
         sys.stderr.write(f"{spec.name}: error: {exc}\n")
         return 2
     threads = args.threads or (1 if args.jobs > 1 else None)

@@ -61,6 +61,27 @@ class MoMu:
         self.cfg = cfg
 
     # ---------------------------------------------------------------- parts
+    def for_dataset(self, dataset: Any) -> MoMu:
+        """This method with the BiCoR-VAE's ``num_joints`` / ``joint_dims`` taken from the data.
+
+        The config's values describe the synthetic default skeleton; a real dataset (Dance with
+        Melody's 21 3D joints, LORIS's COCO-17 keypoints, ...) brings its own, so the first training
+        clip decides and the change is logged. Stage keys are computed from the effective node, so a
+        cached stage is never reused across skeletons.
+        """
+        train = select_split(dataset, "train")
+        if not train:
+            raise ValueError("the dataset has no 'train' clips with motion and audio")
+        motion = dataset[train[0]].motion
+        enc = dict(_plain(self.cfg.encoder))
+        shape = {"num_joints": int(motion.shape[1]), "joint_dims": int(motion.shape[2])}
+        changed = {k: v for k, v in shape.items() if k in enc and enc[k] != v}
+        if not changed:
+            return self
+        for key, value in changed.items():
+            log.info("method.encoder.%s: %d from the dataset (config: %s)", key, value, enc[key])
+        return MoMu(dataclasses.replace(self.cfg, encoder={**enc, **changed}))
+
     def build_encoder(self) -> BiCoRVAE:
         vae = build_component(self.cfg.encoder, "encoders")
         if not isinstance(vae, BiCoRVAE):

@@ -26,7 +26,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from momu.engine.table import Column, Row, TableSpec
-from momu.methods.momu.evaluate import calibrate_momu, evaluate_momu
+from momu.methods.momu.evaluate import calibrate_momu, check_rows, evaluate_momu
 
 __all__ = ["BASE_CONFIG", "PRESETS", "COLUMNS", "table7_spec", "table10_spec"]
 
@@ -180,6 +180,7 @@ def table7_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         ],
         evaluate=evaluate_momu,
         calibrate=calibrate_momu,
+        check=check_rows,
         notes=_TABLE7_NOTES,
     )
 
@@ -215,6 +216,7 @@ def table10_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         rows=rows,
         evaluate=evaluate_momu,
         calibrate=calibrate_momu,
+        check=check_rows,
         notes=(
             "Every row shares the same trained models (one training per run); rows differ only in γ.",
             *_TABLE7_NOTES[:1],
