@@ -14,7 +14,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "write_json", "read_json"]
+__all__ = [
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "write_json",
+    "read_json",
+    "check_output_dir",
+    "check_output_file",
+]
 
 
 @contextlib.contextmanager
@@ -67,3 +75,58 @@ def read_json(path: str | Path) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+
+
+def _first_existing(path: Path) -> Path:
+    probe = path
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    return probe
+
+
+def _check_creatable(path: Path, flag: str) -> None:
+    """``path`` does not exist yet: its nearest existing ancestor must be a writable folder."""
+    ancestor = _first_existing(path.parent if path.parent != path else path)
+    if not ancestor.is_dir():
+        raise ValueError(f"{flag} {path}: cannot create it, {ancestor} is a file, not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ValueError(f"{flag} {path}: cannot create it, folder {ancestor} is not writable")
+
+
+def check_output_dir(path: str | Path, flag: str = "--out") -> Path:
+    """Fail (``ValueError`` naming ``flag`` and ``path``) unless ``path`` is or can become a writable folder.
+
+    Checks only; creates nothing, so a command can check every output before doing any work.
+    """
+    path = Path(path)
+    try:
+        if path.is_symlink() and not path.exists():
+            raise ValueError(f"{flag} {path}: a broken symbolic link (or a link loop)")
+        if path.exists():
+            if not path.is_dir():
+                raise ValueError(f"{flag} {path}: exists and is a file, not a folder")
+            if not os.access(path, os.W_OK | os.X_OK):
+                raise ValueError(f"{flag} {path}: folder is not writable")
+            return path
+        _check_creatable(path, flag)
+    except OSError as exc:  # ELOOP, ENAMETOOLONG ...
+        raise ValueError(f"{flag} {path}: {exc.strerror or exc}") from None
+    return path
+
+
+def check_output_file(path: str | Path, flag: str = "--out") -> Path:
+    """Fail (``ValueError`` naming ``flag`` and ``path``) unless ``path`` can be written as a file."""
+    path = Path(path)
+    try:
+        if path.is_symlink() and not path.exists():
+            raise ValueError(f"{flag} {path}: a broken symbolic link (or a link loop)")
+        if path.exists():
+            if path.is_dir():
+                raise ValueError(f"{flag} {path}: is a folder; give a file name")
+            if not os.access(path.parent, os.W_OK | os.X_OK):
+                raise ValueError(f"{flag} {path}: folder {path.parent} is not writable")
+            return path
+        _check_creatable(path, flag)
+    except OSError as exc:
+        raise ValueError(f"{flag} {path}: {exc.strerror or exc}") from None
+    return path

@@ -20,7 +20,6 @@ re-run) and an ``evaluate`` function — and calls :func:`run_table`. The runner
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import platform
@@ -37,10 +36,12 @@ from typing import Any
 import torch
 from omegaconf import DictConfig
 
-from momu.config import ConfigError, load_config, save_config, to_container
+from momu.config import ConfigError, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
+from momu.engine.preflight import check_datasets, check_outputs, row_config
 from momu.engine.trainer import Preempted
+from momu.errors import EXIT_PREEMPTED, UsageParser, fail
 from momu.io import atomic_write_text, write_json
 from momu.registry import BUILTIN_SOURCE, REGISTRIES
 
@@ -111,6 +112,8 @@ class TableSpec:
         baselines: the paper's other rows, reported and marked as not re-run.
         data_key: the config key of the dataset node (``--data`` sets it).
         notes: extra lines for ``results.md``.
+        check: ``check(row_config)`` run on every row before anything is created (raise
+            ``ValueError``/``OSError`` with a one-line reason, e.g. a dataset that does not open).
     """
 
     name: str
@@ -124,6 +127,7 @@ class TableSpec:
     baselines: Sequence[PaperRow] = ()
     data_key: str = "dataset"
     notes: Sequence[str] = ()
+    check: Callable[[DictConfig], None] | None = None
 
 
 def _csv(text: str) -> list[str]:
@@ -133,8 +137,9 @@ def _csv(text: str) -> list[str]:
 def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> TableArgs:
     """Parse a recipe's command line."""
     default_preset = "paper" if torch.cuda.is_available() else "cpu"
-    parser = argparse.ArgumentParser(
+    parser = UsageParser(
         prog=f"accelerate launch recipes/{spec.name}.py",
+        error_prefix=spec.name,
         description=spec.title,
     )
     parser.add_argument(
@@ -202,14 +207,14 @@ def resolve_row_configs(spec: TableSpec, args: TableArgs) -> dict[str, DictConfi
         raise ConfigError(
             f"--preset {args.preset}: not defined for {spec.name}; valid: {', '.join(spec.presets)}"
         )
-    preset = [*spec.presets[args.preset], *_data_overrides(spec, args.data)]
+    preset, data = spec.presets[args.preset], _data_overrides(spec, args.data)
     configs: dict[str, DictConfig] = {}
     for row_id in args.rows:
         row = known[row_id]
-        try:  # preset and data first, then what makes the row, then the user's overrides
-            configs[row_id] = load_config(spec.base_config, [*preset, *row.overrides, *args.overrides])
-        except ConfigError as exc:
-            raise ConfigError(f"row {row_id} ({row.name}): {exc}") from None
+        # preset, what makes the row, the user's overrides, then --data (it survives `dataset=NAME`)
+        configs[row_id] = row_config(
+            spec.base_config, f"row {row_id} ({row.name})", row.overrides, preset, args.overrides, data
+        )
     return configs
 
 
@@ -339,11 +344,12 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     args = parse_table_args(spec, argv)
-    try:
+    try:  # everything is checked before any folder, tracker or model is made
         configs = resolve_row_configs(spec, args)
+        check_outputs(args.out, spec.name)
+        check_datasets(configs, spec.check)
     except ConfigError as exc:
-        sys.stderr.write(f"{spec.name}: error: {exc}\n")
-        return 2
+        return fail(spec.name, exc)
     first = next(iter(configs.values()))
     seeds = args.seeds or [int(first.get("seed", 0))]
     out = args.out / spec.name
@@ -383,7 +389,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
         finish_accelerator(accelerator)
-        return 143
+        return EXIT_PREEMPTED
     result = {
         "table": spec.name,
         "title": spec.title,
@@ -401,6 +407,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             "versions": _versions(),
             "plugins": _plugin_sources(),
             "num_processes": accelerator.num_processes,
+            "num_threads": torch.get_num_threads(),
             "device": str(accelerator.device)
             + (f" ({torch.cuda.get_device_name()})" if torch.cuda.is_available() else ""),
             "argv": list(argv if argv is not None else sys.argv[1:]),
