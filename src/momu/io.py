@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,6 +23,8 @@ __all__ = [
     "read_json",
     "check_output_dir",
     "check_output_file",
+    "staged_dir",
+    "FolderBusyError",
 ]
 
 
@@ -130,3 +133,67 @@ def check_output_file(path: str | Path, flag: str = "--out") -> Path:
     except OSError as exc:
         raise ValueError(f"{flag} {path}: {exc.strerror or exc}") from None
     return path
+
+
+class FolderBusyError(RuntimeError):
+    """Another process is writing the same output folder."""
+
+
+@contextlib.contextmanager
+def _exclusive(lock_path: Path, target: Path) -> Iterator[None]:
+    """Hold an exclusive, non-blocking ``flock`` on ``lock_path`` (released if the process dies)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: staging + rename still keeps folders whole
+        yield
+        return
+    fd = os.open(lock_path, os.O_CREAT | os.O_RDWR, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusyError(f"{target}: another process is writing this folder") from None
+        try:
+            yield
+        finally:
+            lock_path.unlink(missing_ok=True)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def staged_dir(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
+    """Build a folder under a staging name and swap it into ``path`` when the block succeeds.
+
+    The staging folder and a lock file live beside ``path`` (``.<name>.staging-<pid>``,
+    ``.<name>.lock``), so readers of ``path`` see the old folder or the new one, never a mix, and a
+    second writer fails at once with :class:`FolderBusyError`. Leftover staging folders of killed
+    writers are removed by the next writer. A non-empty ``path`` is replaced only with ``overwrite``.
+
+    Raises:
+        NotADirectoryError: ``path`` is a file.
+        FileExistsError: ``path`` is a non-empty folder and ``overwrite`` is false.
+        FolderBusyError: another writer holds the lock.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise NotADirectoryError(f"{path}: exists and is a file, not a folder")
+    if path.is_dir() and any(path.iterdir()) and not overwrite:
+        raise FileExistsError(f"{path}: folder is not empty (pass --overwrite to replace it)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _exclusive(path.parent / f".{path.name}.lock", path):
+        for leftover in path.parent.glob(f".{path.name}.staging-*"):  # writers that were killed
+            shutil.rmtree(leftover, ignore_errors=True)
+        for leftover in path.parent.glob(f".{path.name}.old-*"):
+            shutil.rmtree(leftover, ignore_errors=True)
+        staging = path.parent / f".{path.name}.staging-{os.getpid()}"
+        staging.mkdir()
+        try:
+            yield staging
+            old = path.parent / f".{path.name}.old-{os.getpid()}"
+            if path.exists():
+                os.rename(path, old)  # an interrupted swap leaves the old folder under .old-*
+            os.rename(staging, path)
+            shutil.rmtree(old, ignore_errors=True)
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)

@@ -41,6 +41,7 @@ from momu.data.common import (
     LazyClipDataset,
     LoaderConfig,
     MissingDataFileError,
+    absent_reason,
     check_split,
     clean_keypoints,
     load_audio,
@@ -143,7 +144,7 @@ def parse_sequence_name(name: str) -> dict[str, str]:
 
 def _pickle_dict(path: Path) -> dict[str, Any]:
     if not path.is_file():
-        raise MissingDataFileError(path, "file not found")
+        raise MissingDataFileError(path, absent_reason(path))
     try:
         data = safe_load(path)
     except UnsafePickleError as exc:
