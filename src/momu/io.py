@@ -25,7 +25,11 @@ __all__ = [
     "check_output_file",
     "staged_dir",
     "FolderBusyError",
+    "remove_stale_temporaries",
 ]
+
+STALE_TEMPORARY_S = 3600.0
+"""A temporary file of :func:`atomic_path` untouched this long (s) belongs to a killed writer."""
 
 
 @contextlib.contextmanager
@@ -48,6 +52,29 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def remove_stale_temporaries(directory: str | Path, suffix: str, max_age_s: float = STALE_TEMPORARY_S) -> int:
+    """Delete :func:`atomic_path` temporaries (``.<stem>.<random><suffix>``) older than ``max_age_s``.
+
+    A writer killed mid-write leaves its temporary behind; a live writer's is younger than
+    ``max_age_s``. Returns the number removed.
+    """
+    import time
+
+    folder = Path(directory)
+    if not folder.is_dir():
+        return 0
+    now = time.time()
+    removed = 0
+    for tmp in folder.glob(f".*{suffix}"):
+        try:
+            if tmp.is_file() and now - tmp.stat().st_mtime > max_age_s:
+                tmp.unlink()
+                removed += 1
+        except OSError:
+            continue
+    return removed
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:

@@ -51,6 +51,7 @@ __all__ = [
     "check_split",
     "sorted_items",
     "AUDIO_SUFFIXES",
+    "printable",
 ]
 
 logger = logging.getLogger(__name__)
@@ -62,6 +63,11 @@ AUDIO_SUFFIXES = (".wav", ".flac", ".ogg", ".opus", ".mp3")
 
 PER_FRAME_META = ("confidence", "smpl_poses", "smpl_trans")
 """``Clip.meta`` keys holding per-motion-frame arrays (cropped with the motion by :func:`crop_clip`)."""
+
+
+def printable(text: object) -> str:
+    """``text`` with any undecodable file-name bytes shown as ``\\xNN`` (safe to print or write as JSON)."""
+    return str(text).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 class DataFileError(ValueError):
@@ -508,11 +514,14 @@ def hash_split(item_id: str, ratios: Sequence[float] = (0.9, 0.05, 0.05), seed: 
     """Deterministic train/val/test assignment of one id (MoMu §5: random 90%/5%/5% splits).
 
     The id is hashed with the seed to a number in [0, 1), so the split of an item depends only on
-    its id and the seed, not on which other items exist or their order.
+    its id and the seed, not on which other items exist or their order. An id from a file name that
+    is not valid UTF-8 hashes as the name's bytes.
     """
     if len(ratios) != 3 or any(r < 0 for r in ratios) or not np.isclose(sum(ratios), 1.0):
         raise ValueError(f"split ratios must be three non-negative numbers summing to 1, got {list(ratios)}")
-    digest = hashlib.sha256(f"{seed}:{item_id}".encode()).digest()
+    # surrogateescape: a file name that is not UTF-8 (os.listdir hands it back with lone surrogates)
+    # hashes as its raw bytes instead of failing the whole dataset
+    digest = hashlib.sha256(f"{seed}:{item_id}".encode("utf-8", "surrogateescape")).digest()
     u = int.from_bytes(digest[:8], "big") / 2.0**64
     if u < ratios[0]:
         return "train"
