@@ -20,6 +20,10 @@ failure summary, also exit 1. :func:`fail` therefore also
   ``traceback :`` field shows the reason instead of "To enable traceback see ...";
 * starts a small detached process (:mod:`momu.launch_epilogue`) that waits for the launcher to exit
   and then repeats the reason on stderr, so the reason is the last line the user sees.
+
+With several processes every rank fails the same way; the first to get here prints the reason and
+starts the epilogue (a claim file per launcher makes it one), the others only write their error
+file — torch elastic may SIGTERM the slower ranks as soon as one has failed.
 """
 
 from __future__ import annotations
@@ -29,7 +33,9 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 from typing import Any, NoReturn
 
 __all__ = [
@@ -96,11 +102,27 @@ def _write_elastic_error_file(line: str) -> None:
         pass
 
 
-def _repeat_after(pid: int, line: str) -> None:
+def _claim(pid: int) -> Path | None:
+    """The claim file of launcher ``pid`` if this process is the first of its ranks to fail, else ``None``."""
+    try:
+        import psutil
+
+        started = int(psutil.Process(pid).create_time() * 1000)
+    except Exception:  # the launcher is already gone: nothing to outlive
+        return None
+    path = Path(tempfile.gettempdir()) / f"momu-fail-{pid}-{started}"
+    try:
+        os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+    except OSError:
+        return None
+    return path
+
+
+def _repeat_after(pid: int, line: str, claim: Path) -> None:
     """Start :mod:`momu.launch_epilogue`: it prints ``line`` on stderr once process ``pid`` has exited."""
     try:
         subprocess.Popen(
-            [sys.executable, "-m", "momu.launch_epilogue", str(pid), line],
+            [sys.executable, "-m", "momu.launch_epilogue", str(pid), line, str(claim)],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             start_new_session=True,
@@ -117,14 +139,17 @@ def fail(prog: str, message: object, status: int = EXIT_USAGE) -> int:
     """
     line = f"{prog}: error: {one_line(message)}"
     pid = launcher_pid()
-    if pid is not None:
-        _write_elastic_error_file(line)
-    if _rank() != 0:
+    if pid is None:
+        if _rank() == 0:
+            sys.stderr.write(line + "\n")
+            sys.stderr.flush()
         return status
-    sys.stderr.write(line + "\n")
-    sys.stderr.flush()
-    if pid is not None:
-        _repeat_after(pid, line)
+    _write_elastic_error_file(line)
+    claim = _claim(pid)
+    if claim is not None:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+        _repeat_after(pid, line, claim)
     return status
 
 
@@ -140,6 +165,6 @@ class UsageParser(argparse.ArgumentParser):
         self.error_prefix = error_prefix
 
     def error(self, message: str) -> NoReturn:
-        if _rank() == 0:
+        if _rank() == 0 and launcher_pid() is None:
             self.print_usage(sys.stderr)
         sys.exit(fail(self.error_prefix or self.prog, message))

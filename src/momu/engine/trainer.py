@@ -39,6 +39,7 @@ from torch import nn
 from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
+from momu.engine.accelerate_setup import define_stage_axis
 from momu.engine.state import (
     capture_rng,
     incomplete_checkpoints,
@@ -299,6 +300,7 @@ def train_stage(
         step = _load(accelerator, checkpoint, model, optimizer)
         log.info("stage %s: resumed from %s (step %d)", name, checkpoint, step)
 
+    define_stage_axis(accelerator, name)
     batches = len(loader)
     micro = step * cfg.grad_accum
     epoch, skip = divmod(micro, batches)
@@ -336,7 +338,8 @@ def train_stage(
                 if step % cfg.log_every == 0 or step == cfg.steps:
                     count = cfg.log_every if step % cfg.log_every == 0 else step % cfg.log_every
                     means = {f"{name}/{k}": v / count for k, v in running.items()}
-                    accelerator.log(means, step=step)
+                    # the tracker's own step stays monotonic across stages; each stage has its axis
+                    accelerator.log({**means, f"{name}/step": step})
                     bar.set_postfix(loss=f"{means[f'{name}/loss']:.4g}")
                     running = {}
                 due = cfg.checkpoint_minutes > 0 and time.monotonic() - last_save >= 60.0 * cfg.checkpoint_minutes
