@@ -54,4 +54,5 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except USAGE_ERRORS as exc:
-        return fail(f"momu {args.command}", exc)
+        action = getattr(args, "action", None)
+        return fail(" ".join(["momu", args.command, *([action] if action else [])]), exc)

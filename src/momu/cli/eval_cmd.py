@@ -200,14 +200,12 @@ class _OncePerMessage(logging.Filter):
 
     def __init__(self) -> None:
         super().__init__()
-        self.seen: set[tuple[str, int, str]] = set()
+        self.first: dict[tuple[str, int, str], logging.LogRecord] = {}
 
     def filter(self, record: logging.LogRecord) -> bool:
         key = (record.name, record.levelno, record.getMessage())
-        if key in self.seen:
-            return False
-        self.seen.add(key)
-        return True
+        first = self.first.setdefault(key, record)
+        return first is record  # the first record passes every handler; later copies none
 
 
 @contextmanager

@@ -264,7 +264,7 @@ def audio_info(path: str | Path) -> tuple[int, int]:
     if path.stat().st_size == 0:
         raise DataFileError(path, "empty audio file (0 bytes)")
     try:
-        info = sf.info(str(path))
+        info = sf.info(os.fsencode(path))  # bytes: names that are not UTF-8 open too
     except Exception as exc:  # libsndfile raises its own error types (LibsndfileError, RuntimeError)
         raise DataFileError(path, f"cannot decode audio ({_sf_reason(exc)})") from None
     return int(info.samplerate), int(info.frames)
@@ -311,7 +311,7 @@ def load_audio(
     if path.stat().st_size == 0:
         raise DataFileError(path, "empty audio file (0 bytes)")
     try:
-        with sf.SoundFile(str(path)) as f:
+        with sf.SoundFile(os.fsencode(path)) as f:
             sr = int(f.samplerate)
             total = int(f.frames)
             if total <= 0:
