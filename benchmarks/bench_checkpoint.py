@@ -17,6 +17,7 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import torch
 
@@ -26,7 +27,14 @@ from momu.registry import BACKBONES
 
 SIZES = {
     "cpu (θ_a)": {"hidden": 128, "heads": 4, "depth": 4, "cond_embed_dim": 128, "channels": 16, "frames": 62},
-    "paper (Table 9)": {"hidden": 576, "heads": 8, "depth": 4, "cond_embed_dim": 1024, "channels": 20, "frames": 125},
+    "paper (Table 9)": {
+        "hidden": 576,
+        "heads": 8,
+        "depth": 4,
+        "cond_embed_dim": 1024,
+        "channels": 20,
+        "frames": 125,
+    },
 }
 
 
@@ -63,8 +71,8 @@ def main() -> None:
             b, c, n = 16, size["channels"], size["frames"]
             x, cond = torch.randn(b, n, c), torch.randn(b, n, c)
 
-            def step() -> None:
-                t = torch.randint(0, 1000, (b,))
+            def step(model: Any = model, optimizer: Any = optimizer, x: Any = x, cond: Any = cond) -> None:
+                t = torch.randint(0, 1000, (x.shape[0],))
                 loss = (model(x, t, cond) - x).pow(2).mean()
                 accelerator.backward(loss)
                 optimizer.step()

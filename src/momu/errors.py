@@ -94,7 +94,9 @@ def _write_elastic_error_file(line: str) -> None:
     path = os.environ.get("TORCHELASTIC_ERROR_FILE")
     if not path:
         return
-    record = {"message": {"message": line, "extraInfo": {"py_callstack": line, "timestamp": str(int(time.time()))}}}
+    record = {
+        "message": {"message": line, "extraInfo": {"py_callstack": line, "timestamp": str(int(time.time()))}}
+    }
     try:
         with open(path, "w", encoding="utf-8") as fh:
             json.dump(record, fh)

@@ -155,7 +155,15 @@ def load_part(directory: str | Path, *, map_location: str = "cpu", **deps: Any) 
         raise ValueError(f"{weights}: cannot read safetensors: {exc}") from None
     check_tensors(weights, state)
     built = {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in module.state_dict().items()}
-    _check_against(weights, kind, name, built, {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in state.items()}, metadata, module)
+    _check_against(
+        weights,
+        kind,
+        name,
+        built,
+        {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in state.items()},
+        metadata,
+        module,
+    )
     module.load_state_dict(state, strict=False)
     return module
 
@@ -192,12 +200,17 @@ def _check_against(
     missing = [k for k in expected if k not in stored and k not in aliases]
     unexpected = [k for k in stored if k not in expected]
     shapes = [
-        f"{k}: saved {stored[k][1]} vs part {v[1]}" for k, v in expected.items() if k in stored and stored[k][1] != v[1]
+        f"{k}: saved {stored[k][1]} vs part {v[1]}"
+        for k, v in expected.items()
+        if k in stored and stored[k][1] != v[1]
     ]
     dtypes = [
         f"{k}: saved {stored[k][0]} vs part {v[0]}"
         for k, v in expected.items()
-        if k in stored and stored[k][1] == v[1] and stored[k][0] != v[0] and (_floating(v[0]) or _floating(stored[k][0]))
+        if k in stored
+        and stored[k][1] == v[1]
+        and stored[k][0] != v[0]
+        and (_floating(v[0]) or _floating(stored[k][0]))
     ]
     if missing or unexpected or shapes or dtypes:
         problems = []

@@ -237,7 +237,11 @@ class Registry(Generic[T]):
         try:
             loaded = ep.load()
         except (Exception, SystemExit) as exc:  # a broken plugin (even one calling sys.exit) is isolated
-            what = f"called sys.exit({exc.code!r})" if isinstance(exc, SystemExit) else f"{type(exc).__name__}: {exc}"
+            what = (
+                f"called sys.exit({exc.code!r})"
+                if isinstance(exc, SystemExit)
+                else f"{type(exc).__name__}: {exc}"
+            )
             raise PluginError(
                 f"{self.kind} '{name}' from distribution {source} ({_describe(ep)}) failed to import: {what}"
             ) from exc

@@ -23,7 +23,14 @@ import torch
 
 from momu.io import atomic_write_bytes
 
-__all__ = ["write_safetensors", "save_module", "read_header", "TensorInfo", "check_tensors", "MAX_HEADER_BYTES"]
+__all__ = [
+    "write_safetensors",
+    "save_module",
+    "read_header",
+    "TensorInfo",
+    "check_tensors",
+    "MAX_HEADER_BYTES",
+]
 
 MAX_HEADER_BYTES = 100 * 1024 * 1024
 """The largest safetensors header read (safetensors' own limit)."""
@@ -118,7 +125,9 @@ def read_header(path: str | Path) -> tuple[dict[str, TensorInfo], dict[str, str]
             raise ValueError(f"{path}: not a safetensors file (shorter than its 8-byte header length)")
         (length,) = struct.unpack("<Q", head)
         if length > min(MAX_HEADER_BYTES, size - 8):
-            raise ValueError(f"{path}: not a safetensors file (header length {length} for a {size}-byte file)")
+            raise ValueError(
+                f"{path}: not a safetensors file (header length {length} for a {size}-byte file)"
+            )
         try:
             header = json.loads(fh.read(length))
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -130,7 +139,11 @@ def read_header(path: str | Path) -> tuple[dict[str, TensorInfo], dict[str, str]
     infos: dict[str, TensorInfo] = {}
     for name, entry in header.items():
         try:
-            dtype, shape, (start, end) = entry["dtype"], tuple(int(n) for n in entry["shape"]), entry["data_offsets"]
+            dtype, shape, (start, end) = (
+                entry["dtype"],
+                tuple(int(n) for n in entry["shape"]),
+                entry["data_offsets"],
+            )
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"{path}: tensor {name!r} has a malformed header entry") from None
         if dtype not in _DTYPE_SIZES:
@@ -138,7 +151,11 @@ def read_header(path: str | Path) -> tuple[dict[str, TensorInfo], dict[str, str]
         count = 1
         for n in shape:
             count *= n
-        if any(n < 0 for n in shape) or not 0 <= start <= end <= data_size or end - start != count * _DTYPE_SIZES[dtype]:
+        if (
+            any(n < 0 for n in shape)
+            or not 0 <= start <= end <= data_size
+            or end - start != count * _DTYPE_SIZES[dtype]
+        ):
             raise ValueError(
                 f"{path}: tensor {name!r} {dtype}{list(shape)} does not match its data offsets "
                 f"[{start}, {end}) in {data_size} bytes of data (truncated or corrupt)"

@@ -45,7 +45,18 @@ def _pairs(root: Path, *, gen_audio: bool = False, gen_joints: int = 24, seconds
 
 
 def _eval(root: Path, metrics: str, *extra: str) -> list[str]:
-    return ["eval", "--gen", str(root / "gen"), "--gt", str(root / "gt"), "--metrics", metrics, "--fps", "30", *extra]
+    return [
+        "eval",
+        "--gen",
+        str(root / "gen"),
+        "--gt",
+        str(root / "gt"),
+        "--metrics",
+        metrics,
+        "--fps",
+        "30",
+        *extra,
+    ]
 
 
 def _wav(path: Path, seconds: float = 1.0) -> Path:
@@ -70,7 +81,16 @@ def _show(*overrides: str) -> Callable[[Path], list[str]]:
 
 
 def _recipe(*argv: str) -> Callable[[Path], list[str]]:
-    return lambda root: ["recipe", "--preset", "smoke", "--tracker", "wandb", "--out", str(root / "out"), *argv]
+    return lambda root: [
+        "recipe",
+        "--preset",
+        "smoke",
+        "--tracker",
+        "wandb",
+        "--out",
+        str(root / "out"),
+        *argv,
+    ]
 
 
 def _bad_yaml(root: Path) -> list[str]:
@@ -158,27 +178,81 @@ CASES = [
     Case("eval-unknown-metric-key", _with_pairs("bas", "--set", "bas.nope=1"), "bas.nope"),
     Case("eval-fps-mismatch", _fps_sidecar, "c1.npy"),
     # generate
-    Case("generate-out-is-a-folder", _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/adir"), "--out"),
-    Case("generate-input-missing", _generate("--task", "music2motion", "--input", "ROOT/no.wav", "--out", "ROOT/o.npy"), "no.wav"),
-    Case("generate-out-parent-is-a-file", _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/afile/o.npy"), "afile"),
-    Case("generate-out-suffix", _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/o.wav"), "o.wav"),
-    Case("generate-model-missing", _generate("--task", "joint", "--out", "ROOT/pair", model=False), "--model"),
-    Case("generate-input-not-audio", _generate("--task", "music2motion", "--input", "ROOT/afile", "--out", "ROOT/o.npy"), "afile"),
+    Case(
+        "generate-out-is-a-folder",
+        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/adir"),
+        "--out",
+    ),
+    Case(
+        "generate-input-missing",
+        _generate("--task", "music2motion", "--input", "ROOT/no.wav", "--out", "ROOT/o.npy"),
+        "no.wav",
+    ),
+    Case(
+        "generate-out-parent-is-a-file",
+        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/afile/o.npy"),
+        "afile",
+    ),
+    Case(
+        "generate-out-suffix",
+        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/o.wav"),
+        "o.wav",
+    ),
+    Case(
+        "generate-model-missing", _generate("--task", "joint", "--out", "ROOT/pair", model=False), "--model"
+    ),
+    Case(
+        "generate-input-not-audio",
+        _generate("--task", "music2motion", "--input", "ROOT/afile", "--out", "ROOT/o.npy"),
+        "afile",
+    ),
     # data check / data synth
-    Case("data-check-unknown-dataset", lambda root: ["data", "check", "nope_set", "--root", str(root)], "nope_set"),
-    Case("data-check-unknown-option", lambda root: ["data", "check", "dance_with_melody", "--root", str(root), "--set", "loda_audio=false"], "loda_audio"),
+    Case(
+        "data-check-unknown-dataset",
+        lambda root: ["data", "check", "nope_set", "--root", str(root)],
+        "nope_set",
+    ),
+    Case(
+        "data-check-unknown-option",
+        lambda root: ["data", "check", "dance_with_melody", "--root", str(root), "--set", "loda_audio=false"],
+        "loda_audio",
+    ),
     Case("data-check-bad-file", _dwm_bad, "dwm", status=1),
-    Case("data-synth-out-is-a-file", lambda root: (root / "f").write_text("x") and ["data", "synth", "--out", str(root / "f")], "--out"),
-    Case("data-synth-bad-option", lambda root: ["data", "synth", "--out", str(root / "d"), "--clips", "-3"], "num_clips"),
+    Case(
+        "data-synth-out-is-a-file",
+        lambda root: (root / "f").write_text("x") and ["data", "synth", "--out", str(root / "f")],
+        "--out",
+    ),
+    Case(
+        "data-synth-bad-option",
+        lambda root: ["data", "synth", "--out", str(root / "d"), "--clips", "-3"],
+        "num_clips",
+    ),
     Case("data-synth-non-empty-out", _synth_nonempty, "--overwrite"),
     # a recipe (MoMu Table 7, smoke preset): every failure comes before training
-    Case("recipe-out-is-a-file", lambda root: (root / "f").write_text("x") and _recipe()(root)[:-2] + ["--out", str(root / "f")], "--out"),
+    Case(
+        "recipe-out-is-a-file",
+        lambda root: (root / "f").write_text("x") and _recipe()(root)[:-2] + ["--out", str(root / "f")],
+        "--out",
+    ),
     Case("recipe-bad-dataset-option", _recipe("dataset.num_clips=-3"), "num_clips"),
-    Case("recipe-real-data-missing", lambda root: _recipe("--data", _empty_dir(root), "dataset=dance_with_melody")(root), "dance_with_melody"),
+    Case(
+        "recipe-real-data-missing",
+        lambda root: _recipe("--data", _empty_dir(root), "dataset=dance_with_melody")(root),
+        "dance_with_melody",
+    ),
     Case("recipe-unknown-top-key", _recipe("zz=1"), "zz: unknown key"),
-    Case("recipe-global-override", _recipe("method.train_diffusion.stpes=10"), "override 'method.train_diffusion.stpes=10'"),
+    Case(
+        "recipe-global-override",
+        _recipe("method.train_diffusion.stpes=10"),
+        "override 'method.train_diffusion.stpes=10'",
+    ),
     Case("recipe-unknown-row", _recipe("--rows", "99"), "--rows"),
-    Case("recipe-bad-preset", lambda root: ["recipe", "--preset", "bogus", "--out", str(root / "out")], "--preset"),
+    Case(
+        "recipe-bad-preset",
+        lambda root: ["recipe", "--preset", "bogus", "--out", str(root / "out")],
+        "--preset",
+    ),
 ]
 
 

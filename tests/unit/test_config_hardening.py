@@ -1,4 +1,4 @@
-"""Issue 13, configs: every key known to a schema, the innermost node named, overrides blamed, no env leaks."""
+"""Issue 13, configs: every key known to a schema, the innermost node named, overrides blamed, no env."""
 
 from __future__ import annotations
 
@@ -29,7 +29,9 @@ def _recipe(overrides: list[str], path: Path = CONFIGS / "momu.yaml") -> object:
 def test_an_unknown_top_level_key_names_itself_and_the_valid_keys(override: str, key: str) -> None:
     with pytest.raises(ConfigError) as err:
         _recipe([override])
-    assert str(err.value).startswith(f"{key}: unknown key; valid keys: seed, mixed_precision, dataset, method")
+    assert str(err.value).startswith(
+        f"{key}: unknown key; valid keys: seed, mixed_precision, dataset, method"
+    )
 
 
 def test_every_shipped_config_key_is_known_to_the_schema() -> None:
@@ -60,7 +62,9 @@ def test_a_nested_typo_names_the_innermost_node_and_its_keys() -> None:
     with pytest.raises(ConfigError) as err:
         _recipe(["method.train_diffusion.stpes=10"])
     message = str(err.value)
-    assert message.startswith("method.train_diffusion.stpes: unknown key for method.train_diffusion (TrainConfig)")
+    assert message.startswith(
+        "method.train_diffusion.stpes: unknown key for method.train_diffusion (TrainConfig)"
+    )
     assert "valid keys: steps, batch_size, lr" in message and "music_backbone" not in message
     with pytest.raises(ConfigError, match=r"subsets.aist.zz: unknown key for subsets.aist \(SubsetConfig\)"):
         from momu.methods.momu.tables_setup import table_base_config
@@ -121,11 +125,18 @@ def test_env_interpolation_is_refused_and_never_printed(
 ) -> None:
     monkeypatch.setenv("H13_TOKEN", "s3cr3t-token-value")
     yaml = tmp_path / "c.yaml"
-    yaml.write_text("seed: 0\nmethod: {name: momu, vocoder: {name: griffin_lim, weights: '${oc.env:H13_TOKEN}'}}\n")
+    yaml.write_text(
+        "seed: 0\nmethod: {name: momu, vocoder: {name: griffin_lim, weights: '${oc.env:H13_TOKEN}'}}\n"
+    )
     for argv in (
         ["config", "show", str(yaml)],
         ["config", "show", str(CONFIGS / "momu.yaml"), "seed=${oc.env:H13_TOKEN}"],
-        ["config", "show", str(CONFIGS / "momu.yaml"), "method.sampler.scheduler.name=${oc.env:H13_TOKEN,ddpm}"],
+        [
+            "config",
+            "show",
+            str(CONFIGS / "momu.yaml"),
+            "method.sampler.scheduler.name=${oc.env:H13_TOKEN,ddpm}",
+        ],
     ):
         assert main(argv) == 2
         out, err = capsys.readouterr()
@@ -134,7 +145,9 @@ def test_env_interpolation_is_refused_and_never_printed(
         load_config({"a": "x-${oc.env:H13_TOKEN}"})
 
 
-def test_a_run_never_writes_an_environment_value(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, toy_methods: None) -> None:
+def test_a_run_never_writes_an_environment_value(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, toy_methods: None
+) -> None:
     monkeypatch.setenv("H13_TOKEN", "s3cr3t-token-value")
     spec = dataclasses.replace(_spec(), rows=[Row("#1", "narrow")])
     assert run_table(spec, ["--out", str(tmp_path), "--tracker", "none", "seed=${oc.env:H13_TOKEN}"]) == 2

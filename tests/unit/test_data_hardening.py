@@ -59,7 +59,11 @@ def test_memory_bombs_are_refused_before_allocating(name: str, protocol: int) ->
 
 
 def _array_state(raw: bytes) -> _Reduce:
-    return _Reduce(_core.multiarray._reconstruct, (np.ndarray, (0,), b"b"), (1, (len(raw) // 8,), np.dtype("f8"), False, raw))
+    return _Reduce(
+        _core.multiarray._reconstruct,
+        (np.ndarray, (0,), b"b"),
+        (1, (len(raw) // 8,), np.dtype("f8"), False, raw),
+    )
 
 
 def test_the_size_limit_is_configurable_and_counts_every_array() -> None:
@@ -170,7 +174,9 @@ def test_synth_refuses_a_non_empty_folder_unless_overwriting(tmp_path: Path) -> 
     write_dataset(out, SMALL)
     with pytest.raises(FileExistsError, match="--overwrite"):
         write_dataset(out, SMALL)
-    write_dataset(out, SynthConfig(num_clips=3, min_seconds=1.0, max_seconds=1.0, styles=["hiphop"]), overwrite=True)
+    write_dataset(
+        out, SynthConfig(num_clips=3, min_seconds=1.0, max_seconds=1.0, styles=["hiphop"]), overwrite=True
+    )
     assert len(load_written(out)) == 3 and not list(tmp_path.glob(".d.*"))
 
 
@@ -186,8 +192,12 @@ def test_an_interrupted_overwrite_leaves_the_old_dataset_whole(tmp_path: Path) -
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        write_dataset(out, SynthConfig(num_clips=4, min_seconds=1.0, max_seconds=1.0, styles=["hiphop"]),
-                      overwrite=True, progress=killed)
+        write_dataset(
+            out,
+            SynthConfig(num_clips=4, min_seconds=1.0, max_seconds=1.0, styles=["hiphop"]),
+            overwrite=True,
+            progress=killed,
+        )
     assert {p.name: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
     assert main(["data", "check", "synth_dance", "--root", str(out), "--no-progress"]) == 0
 

@@ -169,9 +169,14 @@ def test_the_stage_key_holds_process_count_effective_batch_and_threads() -> None
 
 def test_checkpoint_settings_do_not_change_the_stage_key() -> None:
     a = {"stage": "x", "train": dataclasses.asdict(TrainConfig(checkpoint_every=0, checkpoint_minutes=10))}
-    b = {"stage": "x", "train": dataclasses.asdict(TrainConfig(checkpoint_every=50, checkpoint_minutes=1, log_every=5))}
+    b = {
+        "stage": "x",
+        "train": dataclasses.asdict(TrainConfig(checkpoint_every=50, checkpoint_minutes=1, log_every=5)),
+    }
     acc = _stub_accelerator(1)
-    assert stage_key_hash(stage_identity(a, acc, TrainConfig())) == stage_key_hash(stage_identity(b, acc, TrainConfig()))  # type: ignore[arg-type]
+    assert stage_key_hash(stage_identity(a, acc, TrainConfig())) == stage_key_hash(
+        stage_identity(b, acc, TrainConfig())
+    )  # type: ignore[arg-type]
 
 
 def test_tracker_steps_are_monotonic_across_stages(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

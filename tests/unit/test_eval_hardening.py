@@ -47,7 +47,9 @@ def test_a_17_joint_motion_against_24_joint_references_is_refused(
         assert "17 joints x 3D) does not match its reference" in err and "clip0.npy" in err
 
 
-def test_a_frame_rate_mismatch_from_a_sidecar_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_frame_rate_mismatch_from_a_sidecar_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     gen, gt = make_pair_dirs(tmp_path)
     (gen / "clip1.json").write_text(json.dumps({"fps": 60.0, "skeleton": ""}))
     assert run_eval(gen, gt, "bas", "--fps", "30") == 2
@@ -83,13 +85,17 @@ def test_clips_too_short_for_the_bins_are_flagged(tmp_path: Path, capsys: pytest
     assert set(warnings) == {"kinematic_beat_scores", "hit_rate"} and "saturates" in warnings["hit_rate"]
 
 
-def test_a_frechet_distance_within_round_off_is_flagged(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_frechet_distance_within_round_off_is_flagged(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     gen, gt = tmp_path / "gen", tmp_path / "gt"
     gen.mkdir()
     gt.mkdir()
     rng = np.random.default_rng(0)
     for i in range(40):
-        motion = (rng.normal(size=(1, 24, 3)) + 0.05 * np.cumsum(rng.normal(size=(90, 24, 3)), 0)).astype(np.float32)
+        motion = (rng.normal(size=(1, 24, 3)) + 0.05 * np.cumsum(rng.normal(size=(90, 24, 3)), 0)).astype(
+            np.float32
+        )
         np.save(gen / f"c{i:02d}.npy", motion)
         np.save(gt / f"c{i:02d}.npy", motion)  # identical sets: FID is 0 up to round-off
     out = tmp_path / "s.json"
@@ -146,7 +152,7 @@ def test_a_repeated_warning_is_printed_once(tmp_path: Path, caplog: pytest.LogCa
 
     class Chatty(_Broken):
         def __call__(self, generated, reference=None):  # type: ignore[no-untyped-def]
-            for clip in generated:
+            for _ in generated:
                 log.warning("clip is odd")
             return {"chatty": 1.0}
 

@@ -39,7 +39,9 @@ def test_an_entry_point_named_like_a_built_in_is_an_error_naming_both(
     assert "CONFLICT: also momu-clash==0.1.0" in capsys.readouterr().out
 
 
-def test_a_plugin_calling_sys_exit_at_import_is_isolated(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_plugin_calling_sys_exit_at_import_is_isolated(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     install_fake_dist(
         tmp_path / "site",
         monkeypatch,
@@ -84,7 +86,9 @@ def test_a_config_that_would_build_a_huge_part_is_refused_before_allocating(
     record["config"]["width"] = 200_000  # 40 G parameters: 160 GB if it were built
     (tmp_path / "p" / "config.json").write_text(json.dumps(record))
     _BUILD_DEVICES.clear()
-    with pytest.raises(ValueError, match=r"shape mismatches.*weight: saved \(4, 4\) vs part \(200000, 200000\)"):
+    with pytest.raises(
+        ValueError, match=r"shape mismatches.*weight: saved \(4, 4\) vs part \(200000, 200000\)"
+    ):
         load_part(tmp_path / "p")
     assert _BUILD_DEVICES == ["meta"]  # only the meta-device build ran
 

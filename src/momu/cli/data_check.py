@@ -123,7 +123,9 @@ def _where(dataset: ClipDataset, index: int, exc: BaseException) -> tuple[str, s
     if message.startswith(where + ": "):
         message = message[len(where) + 2 :]
     if isinstance(exc, MemoryError):
-        message = "out of memory reading it (does a header declare a huge size?)" + (f": {message}" if message else "")
+        message = "out of memory reading it (does a header declare a huge size?)" + (
+            f": {message}" if message else ""
+        )
     elif not message:
         message = "no message"
     plain = isinstance(exc, (OSError, ValueError, MemoryError))

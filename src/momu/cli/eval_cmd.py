@@ -91,6 +91,9 @@ def build_metrics(names: Sequence[str], params: dict[str, dict[str, Any]]) -> di
     return built
 
 
+_MODALITY = {"motion": "motion (.npy)", "audio": "music (audio files)"}
+
+
 def check_inputs(
     metrics: Mapping[str, Any], generated: Sequence[Clip], reference: Sequence[Clip]
 ) -> dict[str, str]:
@@ -109,7 +112,7 @@ def check_inputs(
         if needs is None:
             continue
         if needs.scores and not have & set(needs.scores):
-            wanted = " or ".join(f"{m} ({'.npy' if m == 'motion' else 'audio'})" for m in needs.scores)
+            wanted = " or ".join(_MODALITY[m] for m in needs.scores)
             raise EvalInputError(
                 f"metric '{name}' scores generated {wanted}, but the generated folder holds "
                 f"{' and '.join(sorted(have)) or 'neither'} for every pair (a missing modality is taken from "
@@ -177,7 +180,11 @@ def _flags(metrics: Mapping[str, Any], scores: Mapping[str, float]) -> dict[str,
         if needs is None or not needs.frechet:
             continue
         for key, value in scores.items():
-            if (key == name or key.startswith(name + ".")) and math.isfinite(value) and within_roundoff(value):
+            if (
+                (key == name or key.startswith(name + "."))
+                and math.isfinite(value)
+                and within_roundoff(value)
+            ):
                 flags[key] = "≈ 0 within round-off: the two sets are indistinguishable"
     return flags
 

@@ -13,6 +13,7 @@ joint layout.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 import soundfile as sf
 
-from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy, npy_header
+from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy
 from momu.data.types import Clip
 from momu.io import read_json
 from momu.metrics._audio import read_audio
@@ -124,7 +125,7 @@ def _motion_info(path: Path, fps: float, skeleton: str | None) -> _MotionInfo:
 
 def _audio_seconds(path: Path) -> float:
     try:
-        info = sf.info(str(path))
+        info = sf.info(os.fsencode(path))
     except Exception as exc:  # libsndfile raises its own error types
         raise EvalInputError(f"{path}: cannot decode audio: {exc}") from None
     if info.frames <= 0:
@@ -154,17 +155,17 @@ class LazyClip(Clip):
         self._motion = motion
         self._audio_path = audio_path
 
-    @property  # type: ignore[override]
-    def motion(self) -> np.ndarray | None:
+    @property
+    def motion(self) -> np.ndarray | None:  # type: ignore[override]
         return None if self._motion is None else _read_motion(self._motion.path)
 
-    @property  # type: ignore[override]
-    def audio(self) -> np.ndarray | None:
+    @property
+    def audio(self) -> np.ndarray | None:  # type: ignore[override]
         return None if self._audio_path is None else _read_audio(self._audio_path)[0]
 
-    @property  # type: ignore[override]
-    def sample_rate(self) -> int | None:
-        return None if self._audio_path is None else int(sf.info(str(self._audio_path)).samplerate)
+    @property
+    def sample_rate(self) -> int | None:  # type: ignore[override]
+        return None if self._audio_path is None else int(sf.info(os.fsencode(self._audio_path)).samplerate)
 
     @property
     def num_frames(self) -> int:
@@ -182,7 +183,9 @@ class LazyClip(Clip):
         return tuple(self.meta.get("generated", ()))
 
     def __repr__(self) -> str:
-        return f"LazyClip({self.id!r}, motion={self._motion is not None}, audio={self._audio_path is not None})"
+        return (
+            f"LazyClip({self.id!r}, motion={self._motion is not None}, audio={self._audio_path is not None})"
+        )
 
 
 def _check_pair(stem: str, gen: _MotionInfo | None, ref: _MotionInfo | None) -> None:

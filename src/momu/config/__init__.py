@@ -122,7 +122,9 @@ def _merge_params(entry: Entry, params: Mapping[str, Any], path: str) -> Any:
     except OmegaConfBaseException as exc:
         key = getattr(exc, "full_key", None) or "?"
         msg = str(exc).splitlines()[0]
-        raise ConfigError(f"{_join(path, key)}: invalid value for {label}: {msg}", key=_join(path, key)) from None
+        raise ConfigError(
+            f"{_join(path, key)}: invalid value for {label}: {msg}", key=_join(path, key)
+        ) from None
 
 
 def _validate_component(node: Any, kind: str, path: str) -> dict[str, Any]:
@@ -157,8 +159,9 @@ def _refuse_env_interpolation(cfg: Any) -> None:
     key = find_env_interpolation(_plain(cfg, resolve=False))
     if key is not None:
         raise ConfigError(
-            f"{key}: ${{oc.env:...}} interpolation is disabled in momu configs (it would copy environment "
-            "values such as tokens into printed and saved configs); write the value or pass it as an override",
+            f"{key}: ${{oc.env:...}} interpolation is disabled in momu configs (it would copy "
+            "environment values such as tokens into printed and saved configs); write the value, or "
+            "let the shell expand it in an override (key=$VAR)",
             key=key,
         )
 

@@ -42,7 +42,7 @@ def _unwrap_optional(tp: Any) -> Any:
 
 
 def _step(cls: type, key: str) -> tuple[type | None, bool]:
-    """The dataclass under field ``key`` of ``cls``: ``(class, is_mapping_of_classes)`` or ``(None, False)``."""
+    """``(dataclass under field key of cls, is it a mapping of them)``, or ``(None, False)``."""
     tp = _hints(cls).get(key)
     if tp is None:
         return None, False

@@ -223,7 +223,9 @@ class AISTPPDataset(LazyClipDataset):
                 continue
             refs.append(ItemRef(seq, self.motion_dir / f"{seq}.pkl", {"split": split_of.get(seq, "none")}))
         # the music folder last: a missing split file or motion folder is the first thing to fix
-        self.music_dir = self._music_dir(root, cfg) if cfg.load_audio else root / (cfg.music_dir or MUSIC_DIRS[0])
+        self.music_dir = (
+            self._music_dir(root, cfg) if cfg.load_audio else root / (cfg.music_dir or MUSIC_DIRS[0])
+        )
         super().__init__(cfg, root, refs)
         self.cfg: AISTPPConfig = cfg
 

@@ -210,7 +210,9 @@ def npy_header(path: str | Path) -> tuple[tuple[int, ...], np.dtype[Any], int]:
     with open(path, "rb") as fh:
         magic = fh.read(6)
         if magic != b"\x93NUMPY":
-            raise DataFileError(path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)")
+            raise DataFileError(
+                path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)"
+            )
         fh.seek(0)
         try:
             version = np.lib.format.read_magic(fh)

@@ -135,9 +135,12 @@ class RestrictedUnpickler(pickle._Unpickler):
         max_bytes: the most array data (bytes, summed over the file) that may be declared.
     """
 
-    dispatch = dict(pickle._Unpickler.dispatch)  # type: ignore[attr-defined]
+    dispatch: dict[int, Any] = dict(pickle._Unpickler.dispatch)  # type: ignore[attr-defined,misc]
+    stack: list[Any]  # the pure-Python unpickler's stack (untyped in the stubs)
 
-    def __init__(self, file: IO[bytes], *, source: str = "<pickle>", max_bytes: int = DEFAULT_MAX_BYTES) -> None:
+    def __init__(
+        self, file: IO[bytes], *, source: str = "<pickle>", max_bytes: int = DEFAULT_MAX_BYTES
+    ) -> None:
         # latin-1 lets Python 2 pickles of numpy arrays (their raw data is a py2 str) load.
         super().__init__(file, encoding="latin1")
         self._source = source

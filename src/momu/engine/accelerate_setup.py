@@ -3,8 +3,8 @@
 Threads: ``accelerate launch`` sets ``OMP_NUM_THREADS=1`` for its children and a plain ``python``
 run leaves torch at one thread per physical core, so the same command gave different weights (and
 metrics) under the two. :func:`configure_threads` sets the count itself — ``MOMU_NUM_THREADS``, or
-the physical cores divided by the processes on this machine — so both agree (torch and, through threadpoolctl, numpy's and scipy's BLAS); it is recorded in
-``results.json`` and in every stage key.
+the physical cores divided by the processes on this machine — so both agree (torch and, through
+threadpoolctl, numpy's and scipy's BLAS); it is recorded in ``results.json`` and in every stage key.
 
 Trackers are quiet unless asked: wandb runs offline and silent (``WANDB_SILENT=true``) unless the
 user sets ``WANDB_MODE`` / ``WANDB_SILENT``. Each stage logs its own step as ``<stage>/step`` and
@@ -23,7 +23,14 @@ import torch
 from accelerate import Accelerator
 from accelerate.utils import DataLoaderConfiguration, GradientAccumulationPlugin
 
-__all__ = ["RunConfig", "make_accelerator", "finish_accelerator", "TRACKERS", "configure_threads", "define_stage_axis"]
+__all__ = [
+    "RunConfig",
+    "make_accelerator",
+    "finish_accelerator",
+    "TRACKERS",
+    "configure_threads",
+    "define_stage_axis",
+]
 
 TRACKERS = ("wandb", "none")
 

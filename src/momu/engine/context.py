@@ -72,7 +72,7 @@ def _without_neutral(node: Any) -> Any:
 
 
 def stage_identity(key: Mapping[str, Any], accelerator: Accelerator, cfg: TrainConfig) -> dict[str, Any]:
-    """The key a stage folder is named by: the method's key (less weight-neutral fields) + :func:`run_facts`."""
+    """The key naming a stage's folder: the method's key (less weight-neutral fields) + :func:`run_facts`."""
     return {**_without_neutral(dict(key)), "run": run_facts(accelerator, cfg)}
 
 

@@ -171,7 +171,11 @@ def _step(path: Path) -> int:
 
 def mark_complete(directory: Path, step: int) -> None:
     """Write ``complete.json`` (every file of ``directory`` and its size); call it last."""
-    files = {p.name: p.stat().st_size for p in sorted(directory.iterdir()) if p.is_file() and p.name != COMPLETE_MARKER}
+    files = {
+        p.name: p.stat().st_size
+        for p in sorted(directory.iterdir())
+        if p.is_file() and p.name != COMPLETE_MARKER
+    }
     write_json(directory / COMPLETE_MARKER, {"step": int(step), "files": files})
 
 

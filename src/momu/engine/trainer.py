@@ -199,7 +199,9 @@ def _resume_point(accelerator: Accelerator, root: Path, name: str) -> Path | Non
     accelerator.wait_for_everyone()
     skipped = incomplete_checkpoints(root)
     for folder in skipped:
-        log.warning("stage %s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder)
+        log.warning(
+            "stage %s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder
+        )
     checkpoint = latest_checkpoint(root)
     if checkpoint is None and skipped:
         raise ResumeError(
@@ -342,10 +344,17 @@ def train_stage(
                     accelerator.log({**means, f"{name}/step": step})
                     bar.set_postfix(loss=f"{means[f'{name}/loss']:.4g}")
                     running = {}
-                due = cfg.checkpoint_minutes > 0 and time.monotonic() - last_save >= 60.0 * cfg.checkpoint_minutes
-                stop, due = _any_process(accelerator, flag.stop, due)  # any process that is due makes all save
+                due = (
+                    cfg.checkpoint_minutes > 0
+                    and time.monotonic() - last_save >= 60.0 * cfg.checkpoint_minutes
+                )
+                stop, due = _any_process(
+                    accelerator, flag.stop, due
+                )  # any process that is due makes all save
                 if stop:
-                    raise Preempted(_save(accelerator, checkpoint_root, step, model, optimizer, cfg), flag.reason)
+                    raise Preempted(
+                        _save(accelerator, checkpoint_root, step, model, optimizer, cfg), flag.reason
+                    )
                 every = cfg.checkpoint_every and step % cfg.checkpoint_every == 0
                 if (every or due) and step < cfg.steps:
                     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)

@@ -51,7 +51,9 @@ def _bins(metric: Any) -> float:
 
 
 def _learned(metric: Any) -> tuple[str, ...]:
-    return ("audio",) if getattr(getattr(metric, "cfg", None), "modality", "motion") == "music" else ("motion",)
+    return (
+        ("audio",) if getattr(getattr(metric, "cfg", None), "modality", "motion") == "music" else ("motion",)
+    )
 
 
 NEEDS: dict[str, MetricNeeds] = {
