@@ -25,7 +25,7 @@ def test_beat_scores_of_motion_only_folders_is_an_error_not_f1_1(
     out = tmp_path / "s.json"
     assert run_eval(gen, gt, "beat_scores", "--fps", "30", "--out", str(out)) == 2
     err = capsys.readouterr().err
-    assert "metric 'beat_scores' scores generated audio" in err and not out.exists()
+    assert "metric 'beat_scores' scores generated music" in err and not out.exists()
     (tmp_path / "b").mkdir()
     gen2, gt2 = make_pair_dirs(tmp_path / "b", gen_audio=True)
     fine = ("--set", "beat_scores.bin_seconds=0.25")
