@@ -5,14 +5,14 @@ denoisers (one diffusion stage trains θ_a and θ_m together, MoMu Eq. 6) — th
 code path (:meth:`momu.methods.momu.MoMu.fit`) on a small ``synth_dance`` (openpose14, 2D pixels),
 then generates motion for the held-out ``test`` clips twice: conditioned on the clip's own music
 (*right*) and on another clip's music (*shuffled*, the derangement π(i) = i+1 of
-:func:`momu.methods.momu.evaluate.derangement`). Both motions are scored against clip i's music:
+:func:`momu.methods.momu.scoring.derangement`). Both motions are scored against clip i's music:
 
 * ``bas`` — Beat Align Score (bailando variant, MoFusion Eq. 10, σ = 3 frames at the decoded rate),
   music beats from clip i's audio;
 * ``f1`` — ``kinematic_beat_scores`` F1 (MoMu App. B.5, one-second bins, percent);
 * ``f1_025s`` — the same with 0.25-s bins (``bin_seconds``; one-second bins saturate on this music);
 * ``onset_f1`` — kinematic beats vs music onsets within ±50 ms (percent,
-  :func:`momu.methods.momu.evaluate.onset_alignment`).
+  :func:`momu.methods.momu.scoring.motion_onset_f1s`).
 
 A model that follows its condition scores clearly higher with the right music. The ground-truth
 motion (and the ground-truth motion of clip π(i)) give the ceiling and the chance level.
@@ -130,7 +130,7 @@ from momu.engine import RunConfig, make_accelerator
 from momu.engine.context import RunContext
 from momu.methods.momu import MoMuModel
 from momu.methods.momu.data import eval_crops
-from momu.methods.momu.evaluate import derangement, onset_alignment
+from momu.methods.momu.scoring import derangement, motion_onset_f1s
 from momu.metrics.loris_scores import onset_times
 from momu.registry import METRICS
 
@@ -158,7 +158,7 @@ def alignment(truth: Sequence[Clip], motions: Sequence[np.ndarray], fps: float) 
         "bas": float(bas),
         "f1": 100.0 * float(f1["kinematic_beat_scores.f1"]),
         "f1_025s": 100.0 * float(f1_fine["kinematic_beat_scores.f1"]),
-        "onset_f1": onset_alignment(truth, clips),
+        "onset_f1": float(motion_onset_f1s(truth, clips).mean()),
     }
 
 

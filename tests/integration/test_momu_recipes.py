@@ -47,16 +47,38 @@ def test_table7_smoke_single_process(tmp_path: Path) -> None:
     assert sum(k.startswith("music_vae-") for k in stages) == 2
     assert sum(k.startswith("motion_vae-") for k in stages) == 4
     assert sum(k.startswith("diffusion-") for k in stages) == 5
-    assert "motion_f1_shuffled_cond" in result["rows"][-1]["metrics"]
+    cross, joint = result["rows"][-1]["comparisons"], result["rows"][4]["comparisons"]
+    assert set(cross["music_f1"]) == {"other condition", "shuffled"}
+    assert set(cross["motion_f1"]) == {"other condition", "shuffled", "ground truth"}
+    assert set(joint["motion_f1"]) == {"other pair", "shuffled", "ground truth"}
+    assert set(cross["motion_fid"]) == {"ground truth"}  # the real-vs-real floor, per seed
+    assert result["rows"][-1]["artifacts"][0]["model"].startswith("models/momu-")
     models = list((tmp_path / "momu_table7" / "models").glob("momu-*/momu.json"))
     assert len(models) == 5
     assert list((tmp_path / "momu_table7" / "models").glob("momu-*/beats.png"))
 
 
+def _check_two_seeds(result: dict, out: Path) -> None:
+    assert result["seeds"] == [0, 1]
+    for row in result["rows"]:
+        assert len(row["per_seed"]) == 2 and row["interval"]["motion_f1"] is not None
+        assert len(row["comparisons"]["motion_f1"]["shuffled"]["per_seed"]) == 2
+    md = (out / "momu_table7" / "results.md").read_text()
+    row7 = next(line for line in md.splitlines() if line.startswith("| #7 |"))
+    assert row7.count(" ± ") == 4  # every cell: mean ± half-width over the two seeds
+    assert "## Verdicts" in md and "95 % Student-t interval" in md
+
+
+def test_table7_smoke_two_seeds(tmp_path: Path) -> None:
+    result = _launch("momu_table7.py", tmp_path, extra=("--rows", "#5,#7", "--seeds", "0", "1"))
+    _check_two_seeds(result, tmp_path)
+
+
 def test_table7_smoke_two_processes(tmp_path: Path) -> None:
-    result = _launch("momu_table7.py", tmp_path, processes=2)
+    result = _launch("momu_table7.py", tmp_path, processes=2, extra=("--seeds", "0", "1"))
     _check_complete(result, TABLE7_ROWS)
     assert result["provenance"]["num_processes"] == 2
+    _check_two_seeds(result, tmp_path)
 
 
 def test_table10_smoke(tmp_path: Path) -> None:

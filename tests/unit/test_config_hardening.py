@@ -154,4 +154,4 @@ def test_a_run_never_writes_an_environment_value(
     assert not (tmp_path / "h13_table").exists()
     assert run_table(spec, ["--out", str(tmp_path), "--tracker", "none", "seed=5"]) == 0
     text = (tmp_path / "h13_table" / "results.json").read_text()
-    assert "s3cr3t" not in text and json.loads(text)["provenance"]["num_threads"] >= 1
+    assert "s3cr3t" not in text and json.loads(text)["provenance"]["threads"] >= 1

@@ -22,7 +22,7 @@ from momu.losses.gan import GANLoss, GANLossConfig, two_step_update
 from momu.losses.vae import VAELoss
 from momu.methods.momu import MoMu, MoMuModel, backbone_node
 from momu.methods.momu.data import MoMuNormalizers, crop_clip, eval_crops
-from momu.methods.momu.evaluate import beat_onset_f1, derangement, eval_lengths
+from momu.methods.momu.scoring import beat_onset_f1, derangement, eval_lengths
 from momu.methods.momu.stages import MusicVAEStage
 from momu.registry import BACKBONES
 

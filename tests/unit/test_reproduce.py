@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from momu.engine.reproduce import MARKER, main, ordering_lines, publish, readme_text, row_verdicts
+from momu.engine.reproduce import MARKER, main, publish, readme_text
+from momu.engine.table_report import ordering_lines, verdict_lines
 
 
 def result() -> dict:
@@ -42,20 +43,47 @@ def result() -> dict:
     }
 
 
-def test_rows_are_compared_with_the_shuffled_calibration_row() -> None:
-    lines = row_verdicts(result())
-    assert lines[0] == "- #1 a: F1↑ beats shuffled (60 vs 40); FID↓ does not beat shuffled (3 vs 1)"
-    assert lines[1].startswith("- #2 b: F1↑ ties shuffled (40 vs 40)")
+def _comparison(estimate: float, low: float, high: float, verdict: str) -> dict:
+    return {
+        "estimate": estimate,
+        "low": low,
+        "high": high,
+        "n": 60,
+        "method": "m",
+        "verdict": verdict,
+        "per_seed": [estimate] * 3,
+        "seeds_agreeing": 3,
+    }
 
 
-def test_ordering_counts_row_pairs_ordered_as_in_the_paper() -> None:
-    lines = ordering_lines(result())
-    # F1: ours #1 > #2, paper #1 < #2 -> 0/1; FID (lower better): ours #1 < #2, paper #1 > #2 -> 0/1
-    assert "- F1↑: 0/1 row pairs ordered as in the paper; best row #1 here, #2 in the paper" in lines[3]
-    assert lines[4].startswith("- FID↓: 0/1 row pairs")
-    one_row = result()
-    one_row["rows"] = one_row["rows"][:1]
-    assert ordering_lines(one_row) == []
+def test_verdict_lines_name_the_interval_and_never_claim_within_noise() -> None:
+    res = result()
+    res["rows"][0]["comparisons"] = {
+        "f1": {
+            "shuffled": _comparison(20.0, 12.5, 27.0, "better"),
+            "other condition": _comparison(1.0, -2.0, 4.0, "not distinguishable"),
+        }
+    }
+    lines = verdict_lines(res)
+    assert "- #1 a:" in lines
+    line = next(x for x in lines if x.startswith("  - F1↑"))
+    assert line == (
+        "  - F1↑: beats shuffled (+20 [+12.5, +27], 3/3 seeds); "
+        "does not follow its condition (not distinguishable) (+1 [-2, +4], 3/3 seeds)"
+    )
+    assert verdict_lines(result()) == []  # no comparisons, no verdicts
+
+
+def test_ordering_lines_count_distinguishable_pairs_only() -> None:
+    res = result()
+    res["orderings"] = {
+        "f1": {"pairs": [], "total": 1, "distinguishable": 1, "agree": 0},
+        "fid": {"pairs": [], "total": 1, "distinguishable": 0, "agree": 0},
+    }
+    lines = ordering_lines(res)
+    assert "- F1↑: 1 of 1 row pairs distinguishable; 0 of those 1 ordered as in the paper" in lines
+    assert "- FID↓: 0 of 1 row pairs distinguishable" in lines
+    assert ordering_lines(result()) == []
 
 
 def test_publish_copies_results_and_keeps_a_hand_written_readme(tmp_path: Path) -> None:

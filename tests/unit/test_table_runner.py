@@ -59,7 +59,7 @@ SPEC = TableSpec(
     columns=[Column("mse", "MSE↓", False), Column("width", "W", True)],
     rows=[Row("#1", "narrow", ("method.width=2",), {"mse": 0.5}), Row("#2", "wide", ("method.width=8",))],
     evaluate=_evaluate,
-    calibrate=lambda ctx, cfg: {"ground truth": {"mse": 0.0}},
+    calibrate=lambda ctx, cfg, seed: {"ground truth": {"mse": 0.0}},
     baselines=[PaperRow("Someone et al.", {"mse": 0.9})],
 )
 
@@ -74,7 +74,7 @@ def test_full_run_writes_results_with_paper_numbers_and_provenance(tmp_path: Pat
     assert result["rows"][0]["paper"] == {"mse": 0.5}
     assert result["rows"][1]["metrics"]["width"] == 8.0 and len(result["rows"][1]["per_seed"]) == 2
     assert result["rows"][0]["config"]["method"] == {"name": "table_toy", "width": 2, "steps": 2}
-    assert result["calibration"] == [{"name": "ground truth", "metrics": {"mse": 0.0}}]
+    assert [(c["name"], c["metrics"]) for c in result["calibration"]] == [("ground truth", {"mse": 0.0})]
     assert result["baselines"][0]["re_run"] is False
     prov = result["provenance"]
     assert prov["num_processes"] == 1 and prov["versions"]["torch"].startswith("2.")
@@ -125,3 +125,36 @@ def test_a_bare_row_number_names_the_hash_row() -> None:
 
     assert parse_table_args(SPEC, ["--rows", "2,#1"]).rows == ["#2", "#1"]
     assert parse_table_args(SPEC, ["--rows", "9"]).rows == ["9"]  # still unknown, reported as given
+
+
+def test_seeds_accept_spaces_or_commas_and_overrides_after_them() -> None:
+    from momu.engine.table import parse_table_args
+
+    assert parse_table_args(SPEC, ["--seeds", "0", "1"]).seeds == [0, 1]
+    assert parse_table_args(SPEC, ["--seeds", "0,1,2"]).seeds == [0, 1, 2]
+    args = parse_table_args(SPEC, ["--seeds", "3", "4", "method.width=5"])
+    assert args.seeds == [3, 4] and args.overrides == ["method.width=5"]
+
+
+def test_default_seeds_follow_the_preset(tmp_path: Path) -> None:
+    from momu.engine.table import _seeds, parse_table_args, resolve_row_configs
+
+    for preset, expected in (("smoke", [0]), ("cpu", [0, 1, 2])):
+        args = parse_table_args(SPEC, ["--preset", preset])
+        first = next(iter(resolve_row_configs(SPEC, args).values()))
+        assert _seeds(SPEC, args, first) == expected
+
+
+def test_cells_print_mean_and_interval_over_seeds(tmp_path: Path) -> None:
+    argv = ["--preset", "smoke", "--out", str(tmp_path), "--tracker", "none", "--seeds", "0", "1", "2"]
+    assert run_table(SPEC, argv) == 0
+    result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
+    row = result["rows"][0]
+    mses = [s["mse"] for s in row["per_seed"]]
+    from momu.engine.statistics import t_interval
+
+    assert row["metrics"]["mse"] == pytest.approx(sum(mses) / 3)
+    assert row["interval"]["mse"] == pytest.approx(t_interval(mses).half_width)
+    md = (tmp_path / "toy_table" / "results.md").read_text()
+    assert "± the half-width of the 95 % Student-t interval" in md
+    assert f"| #1 | narrow | {row['metrics']['mse']:.3g} ± {row['interval']['mse']:.3g} |" in md

@@ -16,10 +16,13 @@ stored under ``<out>/parts/<name>-<hash(key)>/``, so
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import logging
-from collections.abc import Callable, Mapping
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -84,10 +87,44 @@ class RunContext:
     out_dir: Path
     resume: bool = False
     trained: dict[str, str] = field(default_factory=dict)  # stage folder -> "trained" | "reused"
+    timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
+
+    @contextmanager
+    def timed(self, category: str) -> Iterator[None]:
+        """Add the wall and CPU (this process) seconds of the block to ``timings[category]``."""
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            rec = self.timings.setdefault(category, {"wall_s": 0.0, "cpu_s": 0.0, "calls": 0.0})
+            rec["wall_s"] += time.perf_counter() - wall
+            rec["cpu_s"] += time.process_time() - cpu
+            rec["calls"] += 1
 
     @property
     def parts_dir(self) -> Path:
         return self.out_dir / "parts"
+
+    @contextmanager
+    def lock(self, name: str) -> Iterator[None]:
+        """Hold an exclusive lock on stage ``name`` of this output folder (``parts/.locks/<name>``).
+
+        Parallel table jobs (``--jobs``) share the output folder; a job that needs a stage another
+        job is training waits for it and then reuses it instead of training it twice. Within one
+        accelerate run of several processes the processes already coordinate through barriers, so
+        no file lock is taken there (one would deadlock against them).
+        """
+        if self.accelerator.num_processes > 1:
+            yield
+            return
+        folder = self.parts_dir / ".locks"
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / f"{name}.lock", "a+") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(handle, fcntl.LOCK_UN)
 
     def stage(
         self,
@@ -106,6 +143,20 @@ class RunContext:
         """
         identity = stage_identity(key, self.accelerator, cfg)
         folder = self.parts_dir / f"{name}-{stage_key_hash(identity)}"
+        with self.lock(folder.name):
+            return self._stage(name, identity, folder, model, dataset, loss_fn, cfg, collate_fn)
+
+    def _stage(
+        self,
+        name: str,
+        identity: Mapping[str, Any],
+        folder: Path,
+        model: nn.Module,
+        dataset: Dataset[Any] | Callable[[], Dataset[Any]],
+        loss_fn: LossFn,
+        cfg: TrainConfig,
+        collate_fn: Callable[[list[Any]], Any] | None,
+    ) -> nn.Module:
         weights = folder / "model.safetensors"
         if weights.is_file():
             model.load_state_dict(load_file(str(weights)), strict=True)
@@ -114,20 +165,21 @@ class RunContext:
             log.info("stage %s: reusing %s", name, folder)
             return model
         data = dataset() if callable(dataset) else dataset
-        trained = train_stage(
-            self.accelerator,
-            name=name,
-            model=model,
-            dataset=data,  # type: ignore[arg-type]
-            loss_fn=loss_fn,
-            cfg=cfg,
-            checkpoint_root=folder / "checkpoints",
-            collate_fn=collate_fn,
-            resume=self.resume,
-        )
+        with self.timed(f"train {name}"):
+            trained = train_stage(
+                self.accelerator,
+                name=name,
+                model=model,
+                dataset=data,
+                loss_fn=loss_fn,
+                cfg=cfg,
+                checkpoint_root=folder / "checkpoints",
+                collate_fn=collate_fn,
+                resume=self.resume,
+            )
         if self.accelerator.is_main_process:
             write_safetensors(weights, trained.state_dict())
-            write_json(folder / "stage.json", {"name": name, "key": identity, "train": cfg.__dict__})
+            write_json(folder / "stage.json", {"name": name, "key": dict(identity), "train": cfg.__dict__})
         self.accelerator.wait_for_everyone()
         self.trained[folder.name] = "trained"
         return trained

@@ -7,8 +7,9 @@ this module once per table::
 
 It copies ``results.json`` / ``results.md`` / ``config.yaml`` and the plots, and writes a README
 saying how the numbers were produced (command, wall time, peak memory, commit), how every row
-compares with the shuffled calibration row, and how often our ordering of rows agrees with the
-paper's. A README without :data:`MARKER` on its first line is hand-written: it is kept and the
+compares with the calibration rows and with its own model given another clip's condition (with
+95 % intervals; :mod:`momu.engine.table_report`), and how many distinguishable row pairs order as
+the paper's. A README without :data:`MARKER` on its first line is hand-written: it is kept and the
 summary goes to ``REPRODUCE.md`` beside it.
 """
 
@@ -21,55 +22,15 @@ import shutil
 from pathlib import Path
 from typing import Any
 
+from momu.engine.table_report import cells_caption, ordering_lines, verdict_lines
 from momu.io import atomic_write_text
 
-__all__ = ["MARKER", "publish", "readme_text", "row_verdicts", "ordering_lines"]
+__all__ = ["MARKER", "publish", "readme_text"]
 
 log = logging.getLogger(__name__)
 
 MARKER = "<!-- written by `nox -s reproduce`; a README without this line is kept -->"
 _COPIED = {".json", ".md", ".yaml", ".png"}
-
-
-def row_verdicts(result: dict[str, Any]) -> list[str]:
-    """One line per row: each column of the row against the shuffled calibration row."""
-    calibration = {c["name"]: c["metrics"] for c in result.get("calibration", [])}
-    shuffled: dict[str, float] = next((m for name, m in calibration.items() if "shuffled" in name), {})
-    lines = []
-    for row in result["rows"]:
-        verdicts = []
-        for col in result["columns"]:
-            ours, chance = row["metrics"].get(col["key"]), shuffled.get(col["key"])
-            if ours is None or chance is None:
-                continue
-            better = ours > chance if col["higher_is_better"] else ours < chance
-            verb = "ties" if ours == chance else ("beats" if better else "does not beat")
-            verdicts.append(f"{col['label']} {verb} shuffled ({ours:.3g} vs {chance:.3g})")
-        lines.append(f"- {row['id']} {row['name']}: " + ("; ".join(verdicts) or "no comparable cells"))
-    return lines
-
-
-def ordering_lines(result: dict[str, Any]) -> list[str]:
-    """Per column, the share of row pairs our numbers order as the paper's do (2+ rows with paper cells)."""
-    rows = [r for r in result["rows"] if r.get("paper")]
-    if len(rows) < 2:
-        return []
-    lines = ["", "## Ordering of rows against the paper's", ""]
-    for col in result["columns"]:
-        key, sign = col["key"], 1.0 if col["higher_is_better"] else -1.0
-        cells = [(r["id"], r["metrics"].get(key), r["paper"].get(key)) for r in rows]
-        cells = [c for c in cells if c[1] is not None and c[2] is not None]
-        pairs = [(a, b) for i, a in enumerate(cells) for b in cells[i + 1 :] if a[2] != b[2]]
-        if not pairs:
-            continue
-        agree = sum((a[1] - b[1]) * (a[2] - b[2]) > 0 for a, b in pairs)
-        best_ours = max(cells, key=lambda c: sign * c[1])[0]
-        best_paper = max(cells, key=lambda c: sign * c[2])[0]
-        lines.append(
-            f"- {col['label']}: {agree}/{len(pairs)} row pairs ordered as in the paper; "
-            f"best row {best_ours} here, {best_paper} in the paper (ties count as disagreement)"
-        )
-    return lines
 
 
 def readme_text(result: dict[str, Any], command: str) -> str:
@@ -88,13 +49,11 @@ def readme_text(result: dict[str, Any], command: str) -> str:
         f"- commit: `{prov['git_commit']}`",
         "",
         "`results.md` holds our numbers beside the paper's and the calibration rows; `results.json`",
-        "the same with the resolved config and provenance. The synthetic data stand in for the",
-        "paper's datasets, so compare the *ordering* of rows and our row against the calibration",
-        "rows, not the absolute values.",
-        "",
-        "## Our rows against the calibration rows",
-        "",
-        *row_verdicts(result),
+        "the same with the resolved config, provenance, per-seed and per-clip values. The synthetic",
+        "data stand in for the paper's datasets, so compare our rows with the calibration rows and",
+        "with each other, not the absolute values with the paper's.",
+        cells_caption(result),
+        *verdict_lines(result),
         *ordering_lines(result),
     ]
     return "\n".join(lines) + "\n"

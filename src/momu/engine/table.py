@@ -20,8 +20,8 @@ re-run) and an ``evaluate`` function — and calls :func:`run_table`. The runner
 
 from __future__ import annotations
 
+import argparse
 import logging
-import math
 import platform
 import resource
 import subprocess
@@ -40,6 +40,9 @@ from momu.config import ConfigError, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
 from momu.engine.preflight import check_datasets, check_outputs, row_config
+from momu.engine.scores import Scores, as_scores
+from momu.engine.table_report import render_markdown
+from momu.engine.table_results import compare_row, orderings, summarise_seeds
 from momu.engine.trainer import Preempted
 from momu.errors import EXIT_PREEMPTED, UsageParser, fail
 from momu.io import atomic_write_text, write_json
@@ -50,15 +53,26 @@ __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "
 log = logging.getLogger(__name__)
 
 PRESETS = ("smoke", "cpu", "paper")
+DEFAULT_SEEDS: Mapping[str, Sequence[int]] = {"smoke": (0,), "cpu": (0, 1, 2), "paper": (0, 1, 2)}
+"""Seeds per preset without ``--seeds``: a committed table has three (DESIGN.md "Statistics")."""
 
 
 @dataclass(frozen=True)
 class Column:
-    """One metric cell of the table: ``key`` in the row's result dict, ``label`` as printed."""
+    """One metric cell of the table.
+
+    Attributes:
+        key: the key in the row's result (``Scores.metrics``).
+        label: as printed (with its arrow).
+        higher_is_better: the column's direction.
+        reducer: how the cell follows from per-clip components (``mean``, or ``f1``: LORIS F1 of the
+            mean BCS and BHS; :data:`momu.engine.statistics.REDUCERS`), used by the paired comparisons.
+    """
 
     key: str
     label: str
     higher_is_better: bool
+    reducer: str = "mean"
 
 
 @dataclass(frozen=True)
@@ -91,8 +105,8 @@ class TableArgs:
     overrides: list[str]
 
 
-EvaluateFn = Callable[[RunContext, DictConfig, int], dict[str, float]]
-CalibrateFn = Callable[[RunContext, DictConfig], dict[str, dict[str, float]]]
+EvaluateFn = Callable[[RunContext, DictConfig, int], "Scores | dict[str, float]"]
+CalibrateFn = Callable[[RunContext, DictConfig, int], Mapping[str, "Scores | dict[str, float]"]]
 
 
 @dataclass
@@ -106,14 +120,20 @@ class TableSpec:
         presets: ``preset -> overrides`` (``smoke``, ``cpu``, ``paper``).
         columns: the metric cells, in print order.
         rows: the rows momu runs.
-        evaluate: ``evaluate(ctx, row_config, seed) -> {column key: value}`` for one row and seed.
-        calibrate: ``calibrate(ctx, base_config) -> {row name: {column key: value}}``
-            (ground truth, shuffled ground truth) computed with the same metric code.
+        evaluate: ``evaluate(ctx, row_config, seed) -> Scores`` for one row and seed: its cells and
+            the per-clip evidence its comparisons rest on (:class:`momu.engine.scores.Scores`; a
+            plain ``{column key: value}`` dict means cells only).
+        calibrate: ``calibrate(ctx, base_config, seed) -> {row name: Scores}`` (ground truth, shuffled
+            ground truth) computed with the same metric code, per seed (a learned metric's feature
+            extractor is trained per seed, so its real-vs-real floor is too).
         baselines: the paper's other rows, reported and marked as not re-run.
         data_key: the config key of the dataset node (``--data`` sets it).
         notes: extra lines for ``results.md``.
         check: ``check(row_config)`` run on every row before anything is created (raise
             ``ValueError``/``OSError`` with a one-line reason, e.g. a dataset that does not open).
+        default_seeds: ``preset -> seeds`` used without ``--seeds`` (committed reproductions use 3;
+            a preset not listed uses the config's ``seed``).
+        bootstrap_seed: seed of the comparisons' bootstrap (results are reproducible).
     """
 
     name: str
@@ -128,6 +148,8 @@ class TableSpec:
     data_key: str = "dataset"
     notes: Sequence[str] = ()
     check: Callable[[DictConfig], None] | None = None
+    default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
+    bootstrap_seed: int = 0
 
 
 def _csv(text: str) -> list[str]:
@@ -157,9 +179,10 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
     )
     parser.add_argument(
         "--seeds",
-        type=lambda s: [int(x) for x in _csv(s)],
+        nargs="+",
         default=None,
-        help="comma-separated seeds (default: the config's seed)",
+        metavar="SEED",
+        help="training seeds, e.g. --seeds 0 1 2 or 0,1,2 (default: 3 at cpu and paper, 1 at smoke)",
     )
     parser.add_argument("--resume", action="store_true", help="resume from the checkpoints under --out")
     parser.add_argument(
@@ -170,16 +193,35 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
     )
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for every row")
     ns = parser.parse_intermixed_args(argv)  # overrides may sit before or after the flags
+    seeds, overrides = _split_seeds(parser, ns.seeds or [])
     return TableArgs(
         preset=ns.preset,
         data=ns.data,
         out=ns.out,
         rows=[_row_id(spec, r) for r in ns.rows] if ns.rows else [r.id for r in spec.rows],
-        seeds=ns.seeds or [],
+        seeds=seeds,
         resume=ns.resume,
         tracker=ns.tracker,
-        overrides=list(ns.overrides),
+        overrides=[*overrides, *ns.overrides],
     )
+
+
+def _split_seeds(parser: argparse.ArgumentParser, tokens: Sequence[str]) -> tuple[list[int], list[str]]:
+    """``--seeds`` tokens as seeds; ``key=value`` tokens that ``nargs`` swallowed go back to overrides."""
+    seeds: list[int] = []
+    overrides: list[str] = []
+    for token in tokens:
+        if "=" in token:
+            overrides.append(token)
+            continue
+        for part in _csv(token):
+            try:
+                seeds.append(int(part))
+            except ValueError:
+                parser.error(f"--seeds: {part!r} is not an integer seed")
+    if len(set(seeds)) != len(seeds):
+        parser.error(f"--seeds: repeated seed in {seeds}")
+    return seeds, overrides
 
 
 def _row_id(spec: TableSpec, given: str) -> str:
@@ -261,83 +303,50 @@ def _peak_memory_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _aggregate(per_seed: list[dict[str, float]]) -> tuple[dict[str, float], dict[str, float]]:
-    keys = sorted({k for result in per_seed for k in result})
-    mean, std = {}, {}
-    for key in keys:
-        values = [r[key] for r in per_seed if key in r]
-        mean[key] = float(sum(values) / len(values))
-        std[key] = (
-            float(math.sqrt(sum((v - mean[key]) ** 2 for v in values) / (len(values) - 1)))
-            if len(values) > 1
-            else 0.0
+def _threads() -> int:
+    return int(torch.get_num_threads())
+
+
+def _seeds(spec: TableSpec, args: TableArgs, first: DictConfig) -> list[int]:
+    if args.seeds:
+        return list(args.seeds)
+    if args.preset in spec.default_seeds:
+        return [int(s) for s in spec.default_seeds[args.preset]]
+    return [int(first.get("seed", 0))]
+
+
+def _columns_json(spec: TableSpec) -> list[dict[str, Any]]:
+    return [
+        {"key": c.key, "label": c.label, "higher_is_better": c.higher_is_better, "reducer": c.reducer}
+        for c in spec.columns
+    ]
+
+
+def _row_result(spec: TableSpec, row: Row, cfg: DictConfig, per_seed: list[Scores]) -> dict[str, Any]:
+    summary = summarise_seeds(per_seed)
+    return {
+        "id": row.id,
+        "name": row.name,
+        **summary,
+        "comparisons": compare_row(summary, spec.columns, bootstrap_seed=spec.bootstrap_seed),
+        "paper": dict(row.paper),
+        "config": to_container(cfg),
+    }
+
+
+def _calibration_result(per_seed: Mapping[str, list[Scores]]) -> list[dict[str, Any]]:
+    out = []
+    for name, scores in per_seed.items():
+        summary = summarise_seeds(scores)
+        out.append(
+            {
+                "name": name,
+                "metrics": summary["metrics"],
+                "interval": summary["interval"],
+                "per_seed": summary["per_seed"],
+            }
         )
-    return mean, std
-
-
-def _fmt(value: float | None) -> str:
-    if value is None:
-        return "—"
-    if not math.isfinite(value):
-        return str(value)
-    return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
-
-
-def render_markdown(spec: TableSpec, result: Mapping[str, Any]) -> str:
-    """``results.md``: our numbers with the paper's beside them, calibration rows, provenance."""
-    cols = list(spec.columns)
-    header = "| id | row | " + " | ".join(f"{c.label} ours | {c.label} paper" for c in cols) + " |"
-    lines = [
-        f"# {spec.title}",
-        "",
-        f"Preset `{result['preset']}`, data `{result['data']}`, seeds "
-        f"{result['seeds']}, {result['provenance']['num_processes']} process(es) on "
-        f"{result['provenance']['device']}, {result['provenance']['wall_time_s']:.0f} s.",
-        "",
-        header,
-        "|" + "---|" * (2 + 2 * len(cols)),
-    ]
-    for row in result["rows"]:
-        cells = []
-        for c in cols:
-            ours = row["metrics"].get(c.key)
-            spread = row.get("std", {}).get(c.key, 0.0)
-            text = _fmt(ours) + (f" ± {_fmt(spread)}" if spread else "")
-            cells += [text, _fmt(row["paper"].get(c.key))]
-        lines.append(f"| {row['id']} | {row['name']} | " + " | ".join(cells) + " |")
-    for row in result["calibration"]:
-        cells = []
-        for c in cols:
-            cells += [_fmt(row["metrics"].get(c.key)), "—"]
-        lines.append(f"| cal | {row['name']} (calibration) | " + " | ".join(cells) + " |")
-    for row in result["baselines"]:
-        cells = []
-        for c in cols:
-            cells += ["not re-run", _fmt(row["paper"].get(c.key))]
-        lines.append(f"| paper | {row['name']} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "Arrows: "
-        + ", ".join(f"{c.label} {'higher' if c.higher_is_better else 'lower'} is better" for c in cols)
-        + ".",
-        "Baseline rows marked *not re-run* are the paper's numbers, reported for reference.",
-        "Calibration rows use the same metric code on ground truth and on ground truth with music and "
-        "motion shuffled across clips: they show what *good* and *chance* are on this data.",
-    ]
-    lines += ["", *spec.notes] if spec.notes else []
-    prov = result["provenance"]
-    lines += [
-        "",
-        "## Provenance",
-        "",
-        f"- commit: `{prov['git_commit']}`",
-        f"- versions: {', '.join(f'{k} {v}' for k, v in prov['versions'].items())}",
-        f"- plugins: {prov['plugins'] or 'none'}",
-        f"- peak memory (main process): {prov['peak_memory_mib']:.0f} MiB",
-        f"- stages: {', '.join(f'{k} ({v})' for k, v in prov['stages'].items()) or 'none'}",
-        "- resolved configs: in results.json (`rows[].config`).",
-    ]
-    return "\n".join(lines) + "\n"
+    return out
 
 
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
@@ -351,7 +360,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     except ConfigError as exc:
         return fail(spec.name, exc)
     first = next(iter(configs.values()))
-    seeds = args.seeds or [int(first.get("seed", 0))]
+    seeds = _seeds(spec, args, first)
     out = args.out / spec.name
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
@@ -364,6 +373,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     accelerator = make_accelerator(run_cfg, out, spec.name, {"preset": args.preset, "rows": args.rows})
     ctx = RunContext(accelerator=accelerator, out_dir=out, resume=args.resume)
     rows_out = []
+    calibration: dict[str, list[Scores]] = {}
     try:
         for row in spec.rows:
             if row.id not in configs:
@@ -372,20 +382,12 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             per_seed = []
             for seed in seeds:
                 log.info("%s: row %s (%s), seed %d", spec.name, row.id, row.name, seed)
-                per_seed.append(spec.evaluate(ctx, cfg, seed))
-            mean, std = _aggregate(per_seed)
-            rows_out.append(
-                {
-                    "id": row.id,
-                    "name": row.name,
-                    "metrics": mean,
-                    "std": std,
-                    "per_seed": per_seed,
-                    "paper": dict(row.paper),
-                    "config": to_container(cfg),
-                }
-            )
-        calibration = spec.calibrate(ctx, first) if spec.calibrate is not None else {}
+                per_seed.append(as_scores(spec.evaluate(ctx, cfg, seed)))
+            rows_out.append(_row_result(spec, row, cfg, per_seed))
+        if spec.calibrate is not None:
+            for seed in seeds:
+                for name, scores in spec.calibrate(ctx, first, seed).items():
+                    calibration.setdefault(name, []).append(as_scores(scores))
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
         finish_accelerator(accelerator)
@@ -396,18 +398,17 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         "preset": args.preset,
         "data": args.data,
         "seeds": seeds,
-        "columns": [
-            {"key": c.key, "label": c.label, "higher_is_better": c.higher_is_better} for c in spec.columns
-        ],
+        "columns": _columns_json(spec),
         "rows": rows_out,
-        "calibration": [{"name": name, "metrics": metrics} for name, metrics in calibration.items()],
+        "calibration": _calibration_result(calibration),
         "baselines": [{"name": b.name, "paper": dict(b.paper), "re_run": False} for b in spec.baselines],
+        "orderings": orderings(rows_out, spec.columns, bootstrap_seed=spec.bootstrap_seed),
         "provenance": {
             "git_commit": _git_commit(),
             "versions": _versions(),
             "plugins": _plugin_sources(),
             "num_processes": accelerator.num_processes,
-            "num_threads": torch.get_num_threads(),
+            "threads": _threads(),
             "device": str(accelerator.device)
             + (f" ({torch.cuda.get_device_name()})" if torch.cuda.is_available() else ""),
             "argv": list(argv if argv is not None else sys.argv[1:]),
@@ -419,7 +420,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     if accelerator.is_main_process:
         save_config(first, out / "config.yaml")
         write_json(out / "results.json", result)
-        atomic_write_text(out / "results.md", render_markdown(spec, result))
+        atomic_write_text(out / "results.md", render_markdown(result, spec.notes))
         log.info("%s: wrote %s", spec.name, out / "results.md")
     accelerator.wait_for_everyone()
     finish_accelerator(accelerator)

@@ -180,6 +180,14 @@ class KinematicBeatScoresMetric(ClipMetric):
     """Registered ``kinematic_beat_scores``: generated motion against the reference music."""
 
     def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
+        covers, hits = self.pairs(generated, reference)
+        scores = aggregate_beat_scores(covers, hits)
+        return {f"{self.name}.{k}": v for k, v in scores.items() if k != "n"}
+
+    def pairs(
+        self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None
+    ) -> tuple[list[float], list[float]]:
+        """Per-pair ``(covers, hits)`` (BCS and BHS of each clip; the cell is their aggregate)."""
         cfg: KinematicBeatScoresConfig = self.cfg
         gen = self._require(generated)
         if cfg.music_from == "reference":
@@ -212,8 +220,7 @@ class KinematicBeatScoresMetric(ClipMetric):
                 raise type(exc)(f"{self.name}: clip {g.id!r}: {exc}") from None
             covers.append(cover)
             hits.append(hit)
-        scores = aggregate_beat_scores(covers, hits)
-        return {f"{self.name}.{k}": v for k, v in scores.items() if k != "n"}
+        return covers, hits
 
 
 @METRICS.register("kinematic_beat_scores", config=KinematicBeatScoresConfig)

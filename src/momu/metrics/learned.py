@@ -58,6 +58,7 @@ __all__ = [
     "DiversityConfig",
     "FADConfig",
     "mean_kl_divergence",
+    "paired_kl_values",
     "inter_diversity",
     "intra_diversity",
     "FIDLearned",
@@ -84,6 +85,15 @@ def _log_probs(name: str, x: np.ndarray) -> np.ndarray:
     return arr
 
 
+def paired_kl_values(reference_log_probs: np.ndarray, generated_log_probs: np.ndarray) -> np.ndarray:
+    """Per-pair ``KL(ref_i ‖ gen_i)`` in nats of ``(N, C)`` log class probabilities (``mean_kld`` paired)."""
+    ref = _log_probs("reference_log_probs", reference_log_probs)
+    gen = _log_probs("generated_log_probs", generated_log_probs)
+    if ref.shape != gen.shape:
+        raise ValueError(f"paired KL needs equal shapes: reference {ref.shape}, generated {gen.shape}")
+    return np.asarray(np.sum(np.exp(ref) * (ref - gen), axis=1), dtype=np.float64)
+
+
 def mean_kl_divergence(
     reference_log_probs: np.ndarray, generated_log_probs: np.ndarray, *, mode: str = "paired"
 ) -> float:
@@ -108,8 +118,7 @@ def mean_kl_divergence(
                 f"mean_kld mode 'paired' pairs generated clip i with reference clip i, but there are "
                 f"{gen.shape[0]} generated and {ref.shape[0]} reference clips (use mode='marginal')"
             )
-        kl = np.sum(np.exp(ref) * (ref - gen), axis=1)
-        return float(max(0.0, np.mean(kl)))
+        return float(max(0.0, np.mean(paired_kl_values(ref, gen))))
     if mode == "marginal":
         log_mean_ref = np.logaddexp.reduce(ref, axis=0) - np.log(ref.shape[0])
         log_mean_gen = np.logaddexp.reduce(gen, axis=0) - np.log(gen.shape[0])

@@ -270,6 +270,14 @@ class BeatScoresMetric(ClipMetric):
     """Registered ``beat_scores``: generated clips' audio against the reference clips' audio."""
 
     def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
+        covers, hits = self.pairs(generated, reference)
+        scores = aggregate_beat_scores(covers, hits, variant=self.cfg.variant)
+        return {f"{self.name}.{k}": v for k, v in scores.items() if k != "n"}
+
+    def pairs(
+        self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None
+    ) -> tuple[list[float], list[float]]:
+        """Per-pair ``(covers, hits)`` (BCS and BHS of each clip; the cell is their aggregate)."""
         cfg: BeatScoresConfig = self.cfg
         gen = self._require(generated)
         ref = check_pairs(gen, reference, self.name)
@@ -286,8 +294,7 @@ class BeatScoresMetric(ClipMetric):
                 raise type(exc)(f"{self.name}: clip {g.id!r}: {exc}") from None
             covers.append(cover)
             hits.append(hit)
-        scores = aggregate_beat_scores(covers, hits, variant=variant)
-        return {f"{self.name}.{k}": v for k, v in scores.items() if k != "n"}
+        return covers, hits
 
 
 @METRICS.register("beat_scores", config=BeatScoresConfig)

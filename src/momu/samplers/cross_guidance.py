@@ -19,7 +19,7 @@ import torch
 from torch import Tensor
 
 from momu.registry import SAMPLERS
-from momu.samplers.base import Backbone, make_noise, module_device, resolve_scheduler
+from momu.samplers.base import Backbone, Generators, make_noise, module_device, resolve_scheduler
 from momu.schedulers.diffusers_schedulers import NoiseScheduler
 
 __all__ = ["CrossGuidanceConfig", "CrossGuidanceSampler", "build_cross_guidance"]
@@ -36,12 +36,17 @@ class CrossGuidanceConfig:
     Attributes:
         gamma: γ with T_c = γ·T (MoMu: 0.5; Table 10 sweeps 0.1–0.9).
         guidance_scale: s of Eq. 7 used once guidance starts (see :class:`momu.samplers.cfg.CFGConfig`).
+        music_guidance_scale, motion_guidance_scale: s for θ_a (music) and θ_m (motion) when they
+            should differ (a table samples joint rows with the same scales as its cross rows);
+            ``None`` uses ``guidance_scale``.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's.
         scheduler: the scheduler node used when none is passed to the factory.
     """
 
     gamma: float = 0.5
     guidance_scale: float = 3.0
+    music_guidance_scale: float | None = None
+    motion_guidance_scale: float | None = None
     num_inference_steps: int | None = None
     scheduler: Any = field(default_factory=_default_scheduler)
 
@@ -54,6 +59,14 @@ class CrossGuidanceSampler:
             raise ValueError(f"cross_guidance.gamma must be in [0, 1], got {cfg.gamma}")
         self.cfg = cfg
         self.scheduler = scheduler
+
+    @property
+    def scales(self) -> tuple[float, float]:
+        """Guidance scales ``(s_a, s_m)`` of θ_a and θ_m (each falls back to ``guidance_scale``)."""
+        c = self.cfg
+        music = c.guidance_scale if c.music_guidance_scale is None else c.music_guidance_scale
+        motion = c.guidance_scale if c.motion_guidance_scale is None else c.motion_guidance_scale
+        return float(music), float(motion)
 
     @property
     def t_c(self) -> int:
@@ -70,7 +83,7 @@ class CrossGuidanceSampler:
         *,
         music_mask: Tensor | None = None,
         motion_mask: Tensor | None = None,
-        generator: torch.Generator | None = None,
+        generator: Generators = None,
         num_inference_steps: int | None = None,
     ) -> tuple[Tensor, Tensor]:
         """Jointly generate ``(z_a, z_m)`` (music latent, motion latent), MoMu Alg. 2.
@@ -82,7 +95,8 @@ class CrossGuidanceSampler:
             music_noise, motion_noise: initial noise ``(B, T_a, C_a)``/``(B, T_m, C_m)`` or their
                 shapes (drawn from ``generator``, music first).
             music_mask, motion_mask: ``(B, T)`` valid frames (variable length, MoMu §5.3).
-            generator: seeds the initial noise and stochastic steps.
+            generator: seeds the initial noise and stochastic steps; a list of one generator per
+                item makes each item's sample depend on its own generator only.
 
         Returns:
             ``(music_latent, motion_latent)``.
@@ -111,7 +125,7 @@ class CrossGuidanceSampler:
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         run_a = self.scheduler.begin(steps)
         run_m = self.scheduler.begin(steps)
-        s = self.cfg.guidance_scale
+        s_a, s_m = self.scales
         t_c = self.t_c
         b = z_a.shape[0]
         for step_t in run_a.timesteps:
@@ -124,8 +138,8 @@ class CrossGuidanceSampler:
                 x0_m = self.scheduler.predict_x0(z_m, eps_m, t)
                 cond_a = music_backbone(z_a, t, x0_m, x_mask=music_mask, cond_mask=motion_mask)
                 cond_m = motion_backbone(z_m, t, x0_a, x_mask=motion_mask, cond_mask=music_mask)
-                eps_a = eps_a + s * (cond_a - eps_a)  # Eq. 7
-                eps_m = eps_m + s * (cond_m - eps_m)
+                eps_a = eps_a + s_a * (cond_a - eps_a)  # Eq. 7
+                eps_m = eps_m + s_m * (cond_m - eps_m)
             z_a = run_a.step(eps_a, t_int, z_a, generator=generator)
             z_m = run_m.step(eps_m, t_int, z_m, generator=generator)
             if keep_a is not None:

@@ -31,11 +31,15 @@ class MoMuEvalConfig:
         variable_length: each clip gets its own length in ``[min_seconds, seconds]`` (Table 7 #6).
         min_seconds: shortest length with ``variable_length``.
         reference_split: split whose crops give the real-vs-real FAD/FID floor of the calibration row.
-        shuffled_condition: also generate motion from a shuffled music condition and report its F1
-            (``motion_f1_shuffled_cond``): the check that motion follows its own music.
+        shuffled_condition: also generate each sample from another clip's condition (same sampling
+            seed) — the "other condition" comparison of every cross-modal verdict: a model that
+            follows its condition scores lower with it.
         batch_size: clips generated per batch (per process).
         extractor_epochs: epochs of the FID/FAD feature extractors (trained once per run).
         extractor_samples_per_clip: windows/segments per clip per extractor epoch.
+        extractor_embed_dim: width of the extractors' feature (0: the classifiers' own, 224-d motion
+            and 128-d audio at the default sizes); a Fréchet distance needs more samples than feature
+            dimensions for a full-rank covariance, so small evaluation sets use a narrower feature.
         beat_bin_seconds: bin width of the F1 columns' beat vectors (``beat_scores``,
             ``kinematic_beat_scores``); 1 s is MoMu's / LORIS's. On music with an onset in every
             second one-second bins match every pair (ground truth and shuffled both score 100), so
@@ -53,6 +57,7 @@ class MoMuEvalConfig:
     batch_size: int = 8
     extractor_epochs: int = 20
     extractor_samples_per_clip: int = 8
+    extractor_embed_dim: int = 0
     beat_bin_seconds: float = 1.0
 
 
@@ -74,6 +79,10 @@ class MoMuConfig:
         sample_rate: music sample rate in Hz (MoMu App. B.2: 16 kHz).
         window_seconds: training window length (the paper trains on its 10–30 s clips).
         window_hop_seconds: hop between training windows.
+        train_min_seconds: variable-length training (MoMu §5.3): each diffusion training item keeps
+            a prefix of its window of a length uniform in ``[train_min_seconds, window_seconds]``
+            (the rest masked), so variable-length evaluation samples lengths seen in training;
+            ``None`` trains at the window length only.
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
         music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
@@ -98,6 +107,7 @@ class MoMuConfig:
     sample_rate: int = 16000
     window_seconds: float = 4.0
     window_hop_seconds: float = 2.0
+    train_min_seconds: float | None = None
     bone_correction: bool = False
     bone_ratio: float = 1.3
     music_sampler: Any = None
@@ -146,6 +156,11 @@ def check_config(cfg: MoMuConfig) -> None:
     if ev.variable_length and not 0 < ev.min_seconds <= ev.seconds:
         raise ValueError(
             f"method.evaluation: need 0 < min_seconds <= seconds, got {ev.min_seconds} and {ev.seconds}"
+        )
+    if cfg.train_min_seconds is not None and not 0 < cfg.train_min_seconds <= cfg.window_seconds:
+        raise ValueError(
+            f"method.train_min_seconds must be in (0, window_seconds={cfg.window_seconds}], "
+            f"got {cfg.train_min_seconds}"
         )
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")

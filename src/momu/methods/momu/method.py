@@ -128,6 +128,7 @@ class MoMu:
             "motion_backbone": _plain(c.motion_backbone),
             "scheduler": _plain(c.scheduler),
             "diffusion_loss": _plain(c.diffusion_loss),
+            **({"train_min_seconds": c.train_min_seconds} if c.train_min_seconds is not None else {}),
             "train": dataclasses.asdict(c.train_diffusion),
             "seed": seed,
         }
@@ -195,7 +196,8 @@ class MoMu:
         motion_bb = build_component(motion_node, "backbones")
         scheduler = build_component(c.scheduler, "schedulers")
         loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
-        diffusion = DiffusionStage(music_bb, motion_bb, loss, vae.latent_channels)
+        min_frames = None if c.train_min_seconds is None else rates.latent_frames(c.train_min_seconds)
+        diffusion = DiffusionStage(music_bb, motion_bb, loss, vae.latent_channels, min_frames)
 
         def latent_data() -> LatentDataset:
             z_music, z_motion = encode_windows(vae, windows())

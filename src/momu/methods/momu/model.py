@@ -264,13 +264,16 @@ class MoMuModel:
     def joint(self, seconds: Sequence[float], seeds: Sequence[int]) -> list[tuple[np.ndarray, np.ndarray]]:
         """Joint generation by cross guidance (Alg. 2, T_c = γT): ``(waveform, motion)`` per length.
 
-        Items of different lengths are generated in one padded batch with masks (MoMu §5.3).
+        Items of different lengths are generated in one padded batch with masks (MoMu §5.3). Each
+        item's initial noise and stochastic steps come from generators seeded by its seed, so a pair
+        depends on its seed only.
         """
         if len(seconds) != len(seeds):
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(seconds)} lengths")
         d = self.latent_channels
         lengths = [self.rates.latent_frames(float(s)) for s in seconds]
-        music_noise, mask = _pad([_item_noise(n, d, 2 * s)[0] for n, s in zip(lengths, seeds)])
+        music_items = [_item_noise(n, d, 2 * s) for n, s in zip(lengths, seeds)]
+        music_noise, mask = _pad([noise for noise, _ in music_items])
         motion_noise, _ = _pad([_item_noise(n, d, 2 * s + 1)[0] for n, s in zip(lengths, seeds)])
         z_a, z_m = self.joint_sampler.sample(
             self.music_backbone,
@@ -279,6 +282,7 @@ class MoMuModel:
             motion_noise,
             music_mask=mask,
             motion_mask=mask,
+            generator=[gen for _, gen in music_items],  # each item's stochastic steps: its own seed
         )
         return [
             (self.decode_music(z_a[i, :n]), self.decode_motion(z_m[i, :n])) for i, n in enumerate(lengths)

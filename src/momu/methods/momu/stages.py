@@ -19,8 +19,9 @@ returning ``(loss, logs)``.
   (Table 7 #3, "w/o RCL") only ``L_recon + λ3 L_KL``.
 * :class:`DiffusionStage` — the two cross-modal denoisers θ_a (motion→music) and θ_m
   (music→motion) trained together on the aligned, standardised latents with the ε-prediction loss
-  and condition dropout (Eq. 6); the per-channel latent statistics are buffers, so they are saved
-  and reloaded with the weights.
+  and condition dropout (Eq. 6), optionally on masked windows of varying length (MoMu §5.3's
+  pad-and-truncate, so variable-length generation samples lengths seen in training); the
+  per-channel latent statistics are buffers, so they are saved and reloaded with the weights.
 """
 
 from __future__ import annotations
@@ -137,12 +138,18 @@ class DiffusionStage(nn.Module):
     """θ_a and θ_m trained jointly on standardised aligned latents (MoMu Eq. 6)."""
 
     def __init__(
-        self, music_backbone: nn.Module, motion_backbone: nn.Module, loss: DiffusionLoss, latent: int
+        self,
+        music_backbone: nn.Module,
+        motion_backbone: nn.Module,
+        loss: DiffusionLoss,
+        latent: int,
+        min_frames: int | None = None,
     ) -> None:
         super().__init__()
         self.music_backbone = music_backbone
         self.motion_backbone = motion_backbone
         self.loss = loss
+        self.min_frames = min_frames
         for name in ("music_mean", "motion_mean"):
             self.register_buffer(name, torch.zeros(latent))
         for name in ("music_std", "motion_std"):
@@ -164,11 +171,25 @@ class DiffusionStage(nn.Module):
     def standardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
         return (z - getattr(self, f"{modality}_mean")) / getattr(self, f"{modality}_std")
 
+    def length_mask(self, batch: int, frames: int, device: torch.device) -> torch.Tensor | None:
+        """Variable-length training (MoMu §5.3): item ``i`` keeps its first ``L_i`` latent frames,
+        ``L_i`` uniform in ``[min_frames, frames]`` (drawn from the global RNG, which the engine
+        seeds per process and checkpoints); ``None`` when training at the window length only."""
+        if self.min_frames is None or self.min_frames >= frames or not self.training:
+            return None
+        lengths = torch.randint(self.min_frames, frames + 1, (batch,))
+        return (torch.arange(frames)[None, :] < lengths[:, None]).to(device)
+
     def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, float]]:
         z_a = self.standardise(batch["z_music"], "music")
         z_m = self.standardise(batch["z_motion"], "motion")
-        loss_a = self.loss(self.music_backbone, z_a, z_m).loss  # θ_a: motion → music
-        loss_m = self.loss(self.motion_backbone, z_m, z_a).loss  # θ_m: music → motion
+        mask = self.length_mask(z_a.shape[0], z_a.shape[1], z_a.device)  # aligned latents: one length
+        loss_a = self.loss(
+            self.music_backbone, z_a, z_m, x_mask=mask, cond_mask=mask
+        ).loss  # θ_a: motion → music
+        loss_m = self.loss(
+            self.motion_backbone, z_m, z_a, x_mask=mask, cond_mask=mask
+        ).loss  # θ_m: music → motion
         return _with_every_parameter(self, loss_a + loss_m), {
             "motion2music": float(loss_a.detach()),
             "music2motion": float(loss_m.detach()),

@@ -36,6 +36,7 @@ import logging
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from momu.engine.table import Column, PaperRow, Row, TableSpec
 from momu.methods.momu.recipes import BASE_CONFIG
@@ -65,7 +66,7 @@ def _spec(
     title: str,
     subsets: Sequence[str],
     columns: list[Column],
-    evaluate: Callable[..., dict[str, float]],
+    evaluate: Callable[..., Any],
     calibrate_kind: str,
     notes: Sequence[str],
     momu_yaml: str | Path,
@@ -98,9 +99,10 @@ _COMMON_NOTES = (
     "second (even shuffled pairs reach 100), so onset times are also matched within ±50 ms (motion→music: "
     "generated "
     "vs ground-truth music onsets; music→motion: kinematic beats vs music onsets).",
-    "`<subset>_f1_shuffled_cond` in results.json: the same F1 for a sample generated from another clip's "
-    "condition "
-    "(a model that follows its condition scores lower than in the F1 column).",
+    "Verdicts: every beat cell is compared, clip by clip on the same clips, with the shuffled calibration, "
+    "with the same model given another clip's condition (a model that follows its condition scores "
+    "lower with it) and, for music→motion, with ground truth; `rows[].comparisons` in results.json "
+    "holds every interval.",
     "Stand-ins with `--data synth` (recipes/configs/momu_tables.yaml, docs/recipes_tables_2_6.md): the "
     "numbers measure "
     "our implementation on synthetic dances, not the paper's datasets.",

@@ -13,15 +13,10 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 
 from momu.config import ConfigError, apply_overrides, build_component, to_container
-from momu.data.types import Clip
 from momu.engine.context import RunContext
 from momu.engine.table import Column
-from momu.methods.momu.evaluate import (
-    beat_onset_f1,
-)
 from momu.methods.momu.recipes import BASE_CONFIG
 from momu.methods.momu.recipes import PRESETS as MOMU_PRESETS
-from momu.metrics.loris_scores import onset_times
 
 log = logging.getLogger(__name__)
 
@@ -117,35 +112,16 @@ SUBSET_LABELS = {
 def beat_columns(prefix: str, label: str = "") -> list[Column]:
     """BCS↑ CSD↓ BHS↑ HSD↓ F1↑ columns keyed ``<prefix>_<metric>``."""
     head = f"{label} " if label else ""
-    return [Column(f"{prefix}_{k}", f"{head}{lab}{'↑' if hi else '↓'}", hi) for k, lab, hi in BEAT_METRICS]
+    return [
+        Column(f"{prefix}_{k}", f"{head}{lab}{'↑' if hi else '↓'}", hi, reducer="f1" if k == "f1" else "mean")
+        for k, lab, hi in BEAT_METRICS
+    ]
 
 
 def onset_column(prefix: str, label: str = "") -> Column:
     """``<prefix>_onset_f1``: the ±50 ms onset F-measure diagnostic (not in the paper)."""
     head = f"{label} " if label else ""
     return Column(f"{prefix}_onset_f1", f"{head}onset F1 ±50ms↑", True)
-
-
-def music_onset_f1(generated: Sequence[Clip], reference: Sequence[Clip], tolerance: float = 0.05) -> float:
-    """Mean F-measure (percent) of each generated music's onsets against its reference music's onsets.
-
-    The LORIS scores bin onsets into one-second bins, which saturate on music with a beat every
-    half second (every bin holds an onset, so even shuffled pairs score 100); this diagnostic
-    matches onset *times* within ``± tolerance`` s (:func:`momu.methods.momu.evaluate.beat_onset_f1`,
-    the LORIS onset detector of App. B.4).
-    """
-    scores = []
-    for g, r in zip(generated, reference, strict=True):
-        if g.audio is None or r.audio is None:
-            raise ValueError(f"music_onset_f1: clip {g.id!r} or {r.id!r} has no audio")
-        scores.append(
-            beat_onset_f1(
-                onset_times(r.audio, int(r.sample_rate or 0)).tolist(),
-                onset_times(g.audio, int(g.sample_rate or 0)).tolist(),
-                tolerance,
-            )
-        )
-    return 100.0 * float(sum(scores) / len(scores))
 
 
 def quality_columns(prefix: str, label: str = "") -> list[Column]:

@@ -36,6 +36,10 @@ class MotionClassifierConfig:
         hidden: width of the head's hidden layer (MotionBERT ``ActionHeadClassification``).
         dropout: dropout before the head's layers (training only).
         dstformer: the encoder (``num_joints``/``dim_in`` must match the data's skeleton).
+        embed_dim: 0 keeps MotionBERT's feature (the pooled ``J · dim_rep`` representation); ``> 0``
+            adds a linear projection to that width, trained with the head, whose output is the
+            feature (momu's choice for small evaluation sets: a Fréchet distance needs more clips
+            than feature dimensions for a full-rank covariance, DESIGN.md "Statistics").
     """
 
     class_names: list[str] = field(default_factory=list)
@@ -44,8 +48,11 @@ class MotionClassifierConfig:
     hidden: int = 128
     dropout: float = 0.1
     dstformer: DSTformerConfig = field(default_factory=lambda: DSTformerConfig(dim_feat=32, dim_rep=16))
+    embed_dim: int = 0
 
     def __post_init__(self) -> None:
+        if self.embed_dim < 0:
+            raise ValueError(f"MotionClassifierConfig.embed_dim must be >= 0, got {self.embed_dim}")
         if self.fps <= 0:
             raise ValueError(f"MotionClassifierConfig.fps must be positive, got {self.fps}")
         if self.window < 2:
@@ -54,9 +61,14 @@ class MotionClassifierConfig:
             self.dstformer = DSTformerConfig(**self.dstformer)
 
     @property
-    def feature_dim(self) -> int:
-        """Width of the clip feature: ``num_joints · dim_rep``."""
+    def pooled_dim(self) -> int:
+        """Width of the pooled encoder representation: ``num_joints · dim_rep``."""
         return self.dstformer.num_joints * self.dstformer.dim_rep
+
+    @property
+    def feature_dim(self) -> int:
+        """Width of the clip feature: ``embed_dim`` if set, else :attr:`pooled_dim`."""
+        return self.embed_dim or self.pooled_dim
 
 
 @dataclass
@@ -166,6 +178,7 @@ class MotionClassifier(nn.Module):
             raise ValueError(f"a classifier needs at least 2 classes, got {cfg.class_names}")
         self.cfg = cfg
         self.encoder = DSTformer(cfg.dstformer)
+        self.embed = nn.Linear(cfg.pooled_dim, cfg.embed_dim) if cfg.embed_dim else None
         self.head = nn.Sequential(
             nn.Dropout(cfg.dropout),
             nn.Linear(cfg.feature_dim, cfg.hidden),
@@ -176,16 +189,18 @@ class MotionClassifier(nn.Module):
         )
 
     def pooled(self, x: torch.Tensor, mask: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """Time-mean of the encoder output over valid frames, joints flattened.
+        """Time-mean of the encoder output over valid frames, joints flattened (then embedded).
 
-        Returns ``(features (B, J·dim_rep), counts (B,))`` where counts are the valid frames averaged.
+        Returns ``(features (B, feature_dim), counts (B,))`` where counts are the valid frames
+        averaged. The embedding is affine, so a frame-weighted mean of window features equals the
+        embedding of the mean representation.
         """
         rep = self.encoder(x, mask)  # (B, T, J, C)
         b, t, j, c = rep.shape
         weights = torch.ones(b, t, device=x.device, dtype=rep.dtype) if mask is None else mask.to(rep.dtype)
         counts = weights.sum(dim=1)
         feats = (rep.reshape(b, t, j * c) * weights[..., None]).sum(dim=1) / counts[:, None]
-        return feats, counts
+        return (feats if self.embed is None else self.embed(feats)), counts
 
     def head_logits(self, features: torch.Tensor) -> torch.Tensor:
         return self.head(features)
