@@ -252,17 +252,27 @@ def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
     sets params of the existing node. Interpolations (``${...}``) are resolved after all
     overrides, so an override reaches every node that refers to the overridden one.
     """
-    tree = OmegaConf.create(_plain(cfg, resolve=False) if cfg is not None else {})
+    # bare names are expanded once here and in each inserted value (not the whole tree per override)
+    tree = OmegaConf.create(_expand_bare_names(_plain(cfg, resolve=False)) if cfg is not None else {})
     for text in overrides:
         key, value = _parse_override(text)
-        tree = OmegaConf.create(_expand_bare_names(_plain(tree, resolve=False)))
         leaf = key.rsplit(".", 1)[-1]
         names_part = not isinstance(value, dict) or "name" in value
         replace = component_kind(leaf) is not None and names_part
-        try:
-            OmegaConf.update(tree, key, value, merge=not replace, force_add=True)
-        except OmegaConfBaseException as exc:
-            raise ConfigError(f"override {text!r}: {str(exc).splitlines()[0]}") from None
+        if leaf.isdigit():  # an item of a component list: expand the list around it afterwards
+            tree = _update(tree, key, value, replace, text)
+            tree = OmegaConf.create(_expand_bare_names(_plain(tree, resolve=False)))
+            continue
+        value = _expand_bare_names({leaf: value})[leaf]
+        tree = _update(tree, key, value, replace, text)
+    return tree
+
+
+def _update(tree: DictConfig, key: str, value: Any, replace: bool, text: str) -> DictConfig:
+    try:
+        OmegaConf.update(tree, key, value, merge=not replace, force_add=True)
+    except OmegaConfBaseException as exc:
+        raise ConfigError(f"override {text!r}: {str(exc).splitlines()[0]}") from None
     return tree
 
 
