@@ -22,6 +22,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 # One intra-op thread per test process: on small shared machines torch's default thread pool makes
 # small-tensor tests many times slower (nox runs two pytest workers on two cores).
 torch.set_num_threads(int(os.environ.get("MOMU_TEST_THREADS", "1")))
+# ... and the runs the tests start (make_accelerator sets the count from MOMU_NUM_THREADS)
+os.environ.setdefault("MOMU_NUM_THREADS", os.environ.get("MOMU_TEST_THREADS", "1"))
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

@@ -3,7 +3,11 @@
 ``config.json`` records the registry kind and name, the validated config and the momu version, so
 :func:`load_part` rebuilds the part through the registry (built-in or plugin) and loads the weights
 strictly: a missing, unexpected or mis-shaped tensor is an error naming the directory and the keys.
-No pickles are written; weights go through safetensors, every file is written atomically.
+The part is first built on PyTorch's ``meta`` device (no memory) and its tensors' names, shapes and
+dtypes compared with the safetensors *header*, so a config that would build a huge model is refused
+before anything is allocated; integer weights where floats belong, and NaN or infinite weights, are
+refused too. No pickles are written; weights go through safetensors (deterministic bytes,
+:mod:`momu.weights_io`), every file is written atomically.
 """
 
 from __future__ import annotations
@@ -13,13 +17,15 @@ import logging
 from pathlib import Path
 from typing import Any
 
+import torch
 from omegaconf import OmegaConf
 from safetensors import SafetensorError
-from safetensors.torch import load_file, save_model
+from safetensors.torch import load_file
 from torch import nn
 
-from momu.io import atomic_path, read_json, write_json
+from momu.io import read_json, write_json
 from momu.registry import KINDS, registry_for
+from momu.weights_io import TensorInfo, check_tensors, dtype_name, read_header, save_module
 
 __all__ = ["CONFIG_FILE", "WEIGHTS_FILE", "FORMAT_VERSION", "save_part", "load_part", "read_part_config"]
 
@@ -84,8 +90,7 @@ def save_part(module: nn.Module, kind: str, name: str, cfg: Any, directory: str 
         "momu_version": __version__,
         "config": _config_dict(kind, name, cfg),
     }
-    with atomic_path(directory / WEIGHTS_FILE) as tmp:
-        save_model(module, str(tmp), metadata={"kind": kind, "name": name, "momu_version": __version__})
+    save_module(module, directory / WEIGHTS_FILE, {"kind": kind, "name": name, "momu_version": __version__})
     write_json(directory / CONFIG_FILE, record)
     return directory
 
@@ -134,6 +139,13 @@ def load_part(directory: str | Path, *, map_location: str = "cpu", **deps: Any) 
             "%s was saved by momu %s, loading with %s", directory, record.get("momu_version"), __version__
         )
     kind, name = record["kind"], record["name"]
+    try:
+        header, metadata = read_header(weights)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{weights}: cannot read safetensors: {exc}") from None
+    expected = _meta_state(kind, name, record["config"], deps)
+    if expected is not None:  # shapes and dtypes checked before the real part is built
+        _check_against(weights, kind, name, expected, header, metadata)
     module = registry_for(kind).build(name, record["config"] or None, **deps)
     if not isinstance(module, nn.Module):
         raise TypeError(f"{directory}: {kind} '{name}' does not build a torch module")
@@ -141,16 +153,66 @@ def load_part(directory: str | Path, *, map_location: str = "cpu", **deps: Any) 
         state = load_file(str(weights), device=map_location)
     except (SafetensorError, OSError) as exc:
         raise ValueError(f"{weights}: cannot read safetensors: {exc}") from None
-    expected = module.state_dict()
-    # tied tensors are stored once by save_model; any other name of the same storage may be absent
-    missing = [k for k in expected if k not in state and not _is_tied_alias(module, k, state)]
-    unexpected = [k for k in state if k not in expected]
+    check_tensors(weights, state)
+    built = {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in module.state_dict().items()}
+    _check_against(
+        weights,
+        kind,
+        name,
+        built,
+        {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in state.items()},
+        metadata,
+        module,
+    )
+    module.load_state_dict(state, strict=False)
+    return module
+
+
+def _meta_state(kind: str, name: str, config: Any, deps: dict[str, Any]) -> dict[str, TensorInfo] | None:
+    """The part's tensor names, dtypes and shapes, built on the ``meta`` device (nothing allocated).
+
+    ``None`` when the factory cannot build on ``meta`` (it then is checked after building).
+    """
+    try:
+        with torch.device("meta"):
+            module = registry_for(kind).build(name, config or None, **deps)
+    except Exception:  # a factory that computes with real tensors: check after building instead
+        logger.debug("%s '%s' does not build on the meta device", kind, name, exc_info=True)
+        return None
+    if not isinstance(module, nn.Module):
+        return None
+    return {k: (dtype_name(v.dtype), tuple(v.shape)) for k, v in module.state_dict().items()}
+
+
+def _check_against(
+    weights: Path,
+    kind: str,
+    name: str,
+    expected: dict[str, TensorInfo],
+    stored: dict[str, TensorInfo],
+    metadata: dict[str, str],
+    module: nn.Module | None = None,
+) -> None:
+    """Missing, unexpected, mis-shaped or mistyped tensors are one error naming the file and keys."""
+    aliases = {k for k, v in metadata.items() if v in stored}  # tied tensors stored once (save_model)
+    if module is not None:
+        aliases |= {k for k in expected if k not in stored and _is_tied_alias(module, k, stored)}
+    missing = [k for k in expected if k not in stored and k not in aliases]
+    unexpected = [k for k in stored if k not in expected]
     shapes = [
-        f"{k}: saved {tuple(state[k].shape)} vs part {tuple(v.shape)}"
+        f"{k}: saved {stored[k][1]} vs part {v[1]}"
         for k, v in expected.items()
-        if k in state and tuple(state[k].shape) != tuple(v.shape)
+        if k in stored and stored[k][1] != v[1]
     ]
-    if missing or unexpected or shapes:
+    dtypes = [
+        f"{k}: saved {stored[k][0]} vs part {v[0]}"
+        for k, v in expected.items()
+        if k in stored
+        and stored[k][1] == v[1]
+        and stored[k][0] != v[0]
+        and (_floating(v[0]) or _floating(stored[k][0]))
+    ]
+    if missing or unexpected or shapes or dtypes:
         problems = []
         if missing:
             problems.append(f"missing keys {missing[:10]}{' …' if len(missing) > 10 else ''}")
@@ -158,12 +220,16 @@ def load_part(directory: str | Path, *, map_location: str = "cpu", **deps: Any) 
             problems.append(f"unexpected keys {unexpected[:10]}{' …' if len(unexpected) > 10 else ''}")
         if shapes:
             problems.append(f"shape mismatches {shapes[:10]}")
+        if dtypes:
+            problems.append(f"dtype mismatches {dtypes[:10]}")
         raise ValueError(f"{weights}: weights do not match {kind} '{name}': " + "; ".join(problems))
-    module.load_state_dict(state, strict=False)
-    return module
 
 
-def _is_tied_alias(module: nn.Module, key: str, state: dict[str, Any]) -> bool:
+def _floating(name: str) -> bool:
+    return name.startswith(("F", "BF"))
+
+
+def _is_tied_alias(module: nn.Module, key: str, state: Any) -> bool:
     """True when ``key`` shares storage with a tensor that is present in ``state``."""
     tensors = module.state_dict(keep_vars=True)
     target = tensors[key]

@@ -198,6 +198,8 @@ class Registry(Generic[T]):
         self._load_builtins()
         out = {name: entry.source for name, entry in self._entries.items()}
         for name, ep in self._entry_points().items():
+            if out.get(name) == BUILTIN_SOURCE:  # get() refuses the name until one is renamed
+                out[name] = f"{BUILTIN_SOURCE} (CONFLICT: also {_dist_source(ep)})"
             out.setdefault(name, _dist_source(ep))
         return dict(sorted(out.items()))
 
@@ -215,9 +217,15 @@ class Registry(Generic[T]):
             PluginError: the plugin declaring ``name`` failed to import or did not register it.
         """
         self._load_builtins()
-        if name in self._entries:
-            return self._entries[name]
         ep = self._entry_points().get(name)
+        if name in self._entries:
+            entry = self._entries[name]
+            if ep is not None and entry.source == BUILTIN_SOURCE:
+                raise RegistryError(
+                    f"{self.kind} '{name}' is registered twice: built in ({entry.origin}) and by "
+                    f"{_describe(ep)} of {_dist_source(ep)}; rename the plugin's part"
+                )
+            return entry
         if ep is None:
             raise RegistryError(
                 f"unknown {singular(self.kind)} '{name}'; valid names: {', '.join(self.names()) or '(none)'}"
@@ -228,10 +236,14 @@ class Registry(Generic[T]):
         source = _dist_source(ep)
         try:
             loaded = ep.load()
-        except Exception as exc:  # a broken plugin must never take momu down with it
+        except (Exception, SystemExit) as exc:  # a broken plugin (even one calling sys.exit) is isolated
+            what = (
+                f"called sys.exit({exc.code!r})"
+                if isinstance(exc, SystemExit)
+                else f"{type(exc).__name__}: {exc}"
+            )
             raise PluginError(
-                f"{self.kind} '{name}' from distribution {source} ({_describe(ep)}) failed to import: "
-                f"{type(exc).__name__}: {exc}"
+                f"{self.kind} '{name}' from distribution {source} ({_describe(ep)}) failed to import: {what}"
             ) from exc
         entry = self._entries.get(name)
         if entry is None:

@@ -44,10 +44,13 @@ def test_config_show_prints_resolved_config(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], cli_net: None
 ) -> None:
     path = tmp_path / "run.yaml"
-    path.write_text("backbone: clitest_net\ntrain:\n  lr: 0.1\n")
+    path.write_text("backbone: clitest_net\nseed: 3\n")
     assert main(["config", "show", str(path), "backbone.depth=6"]) == 0
     out = capsys.readouterr().out
-    assert "name: clitest_net" in out and "depth: 6" in out and "lr: 0.1" in out
+    assert "name: clitest_net" in out and "depth: 6" in out and "seed: 3" in out
+    # a node no schema knows (a top-level `train:`) is an error since issue 13, not silently kept
+    assert main(["config", "show", str(path), "train.lr=0.1"]) == 2
+    assert "train: unknown key; valid keys: seed" in capsys.readouterr().err
 
 
 def test_config_show_rejects_bad_key_with_status_2(

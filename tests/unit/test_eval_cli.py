@@ -82,6 +82,7 @@ def test_bad_motion_file_and_failing_metric(tmp_path: Path, capsys: pytest.Captu
     assert run_eval(gen, gt, "bas") == 2
     assert "(T, J, D)" in capsys.readouterr().err
     np.save(gen / "clip0.npy", np.zeros((30, 24, 3), dtype=np.float32))  # static: PFC is undefined
+    np.save(gt / "clip0.npy", np.zeros((30, 24, 3), dtype=np.float32))  # the same skeleton
     out = tmp_path / "s.json"
     assert run_eval(gen, gt, "pfc", "--out", str(out)) == 1
     data = json.loads(out.read_text())

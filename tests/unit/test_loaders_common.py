@@ -117,7 +117,7 @@ def test_load_npy_refuses_pickled_objects_and_non_numeric_arrays(tmp_path: Path)
     with pytest.raises(DataFileError, match=r"junk.npy: not a .npy file \(no NUMPY header\)"):
         load_npy(tmp_path / "junk.npy")
     (tmp_path / "cut.npy").write_bytes((tmp_path / "ok.npy").read_bytes()[:-8])
-    with pytest.raises(DataFileError, match="cut.npy: not a readable .npy array"):
+    with pytest.raises(DataFileError, match="cut.npy: not a valid .npy file"):
         load_npy(tmp_path / "cut.npy")
 
 

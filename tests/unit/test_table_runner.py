@@ -98,7 +98,8 @@ def test_rerunning_one_row_reuses_its_trained_stage(tmp_path: Path) -> None:
         (["--rows", "#9"], "--rows: unknown row #9; valid rows: #1, #2"),
         (
             ["method.widht=3"],
-            "row #1 (narrow): method.widht: unknown key for method 'table_toy'; valid keys: width, steps",
+            "override 'method.widht=3': method.widht: unknown key for method 'table_toy'; "
+            "valid keys: width, steps",
         ),
         (["--data", "/no/such/dir"], "--data /no/such/dir: dataset folder not found"),
     ],

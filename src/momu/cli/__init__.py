@@ -9,10 +9,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
-import sys
 from collections.abc import Sequence
 
 from momu.config import ConfigError
+from momu.errors import UsageError, UsageParser, fail
 from momu.registry import PluginError, RegistryError
 
 __all__ = ["main", "build_parser"]
@@ -27,13 +27,13 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "momu.cli.generate_cmd",
 )
 
-USAGE_ERRORS = (ConfigError, RegistryError, PluginError)
+USAGE_ERRORS = (ConfigError, UsageError, RegistryError, PluginError)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from momu import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = UsageParser(
         prog="momu", description="momu: music <-> motion generation (MoMu-Diffusion, MoFusion, HarmoGAN)."
     )
     parser.add_argument("--version", action="version", version=f"momu {__version__}")
@@ -46,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``momu`` command; returns the exit status (2 for usage and config errors)."""
+    """Run the ``momu`` command; returns the exit status (2 for usage and config errors, docs/errors.md)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
@@ -54,5 +54,5 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except USAGE_ERRORS as exc:
-        sys.stderr.write(f"momu {args.command}: error: {exc}\n")
-        return 2
+        action = getattr(args, "action", None)
+        return fail(" ".join(["momu", args.command, *([action] if action else [])]), exc)

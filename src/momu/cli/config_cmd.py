@@ -1,4 +1,8 @@
-"""``momu config show CONFIG.yaml [key=value ...]``: the resolved, validated config."""
+"""``momu config show CONFIG.yaml [key=value ...]``: the resolved, validated config.
+
+Every key is checked: component nodes against their part's dataclass, everything else against
+:class:`~momu.config.schema.RecipeConfig` (a typo such as ``sed=3`` is an error naming the valid keys).
+"""
 
 from __future__ import annotations
 
@@ -22,6 +26,8 @@ def add_parser(sub: Any) -> None:
 
 
 def run_show(args: argparse.Namespace) -> int:
-    cfg = load_config(args.config, args.overrides)
+    from momu.config.schema import RecipeConfig
+
+    cfg = load_config(args.config, args.overrides, schema=RecipeConfig, fill_defaults=False)
     sys.stdout.write(OmegaConf.to_yaml(cfg))
     return 0

@@ -28,7 +28,7 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from momu.config import ConfigError
-from momu.data.common import DataFileError
+from momu.data.common import DataFileError, printable
 from momu.data.types import Clip, ClipDataset
 from momu.registry import DATASETS
 
@@ -116,13 +116,20 @@ def _counts(counter: Any) -> str:
 
 def _where(dataset: ClipDataset, index: int, exc: BaseException) -> tuple[str, str]:
     if isinstance(exc, DataFileError):
-        return str(exc.path), exc.reason
+        return printable(exc.path), exc.reason
     items = getattr(dataset, "items", None)
     where = str(items[index].path) if isinstance(items, list) and index < len(items) else f"item {index}"
     message = str(exc)
     if message.startswith(where + ": "):
         message = message[len(where) + 2 :]
-    return where, message if isinstance(exc, (OSError, ValueError)) else f"{type(exc).__name__}: {message}"
+    if isinstance(exc, MemoryError):
+        message = "out of memory reading it (does a header declare a huge size?)" + (
+            f": {message}" if message else ""
+        )
+    elif not message:
+        message = "no message"
+    plain = isinstance(exc, (OSError, ValueError, MemoryError))
+    return printable(where), printable(message if plain else f"{type(exc).__name__}: {message}")
 
 
 def check_dataset(dataset: ClipDataset, *, progress: bool = False) -> CheckReport:
@@ -207,8 +214,9 @@ def run(args: argparse.Namespace) -> int:
         where, reason = (
             (str(exc.path), exc.reason) if isinstance(exc, DataFileError) else (args.root, str(exc))
         )
-        sys.stdout.write(f"{title}\nBAD {where}: {reason}\nresult: cannot open the dataset\n")
+        text = f"{title}\nBAD {where}: {reason}\nresult: cannot open the dataset\n"
+        sys.stdout.write(printable(text))
         return 1
     report = check_dataset(dataset, progress=not args.no_progress)
-    sys.stdout.write(report.summary(title) + "\n")
+    sys.stdout.write(printable(report.summary(title)) + "\n")
     return 0 if report.ok else 1

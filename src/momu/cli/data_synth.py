@@ -15,7 +15,9 @@ from typing import Any
 from tqdm import tqdm
 
 from momu.data.synth import STYLE_NAMES, SynthConfig, SynthDance, write_dataset
+from momu.errors import EXIT_PROBLEMS, UsageError, fail
 from momu.features.skeletons import SKELETON_NAMES
+from momu.io import FolderBusyError, check_output_dir
 
 __all__ = ["add_action", "config_from_args", "run"]
 
@@ -28,7 +30,10 @@ def add_action(actions: Any) -> None:
         help="write the synthetic paired music/dance dataset (synth_dance) to a folder",
         description=__doc__.split("\n\n")[0] if __doc__ else None,
     )
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created; must be empty)")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace a non-empty --out folder once the new copy is done"
+    )
     p.add_argument(
         "--clips", type=int, default=d.num_clips, metavar="N", help="number of clips (%(default)s)"
     )
@@ -103,20 +108,25 @@ def config_from_args(args: argparse.Namespace) -> SynthConfig:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the dataset; exit status 0, or 2 with a one-line error for invalid options."""
+    """Write the dataset; exit status 0, or 2 with a one-line error for invalid options or ``--out``."""
     cfg = config_from_args(args)
     try:
         total = len(SynthDance(cfg))  # validates every option
+        check_output_dir(args.out, "--out")
     except ValueError as exc:
-        sys.stderr.write(f"momu data synth: error: {exc}\n")
-        return 2
+        raise UsageError(str(exc)) from None
     try:
         with tqdm(total=total, desc="synth_dance", unit="clip", disable=args.no_progress) as bar:
             out = write_dataset(
-                args.out, cfg, subtype="FLOAT" if args.float_wav else "PCM_16", progress=bar.update
+                args.out,
+                cfg,
+                subtype="FLOAT" if args.float_wav else "PCM_16",
+                progress=bar.update,
+                overwrite=args.overwrite,
             )
-    except OSError as exc:
-        sys.stderr.write(f"momu data synth: error: cannot write {args.out}: {exc}\n")
-        return 1
+    except (FileExistsError, NotADirectoryError, FolderBusyError) as exc:
+        raise UsageError(f"--out {exc}") from None
+    except OSError as exc:  # a disk that fills up or goes away while writing
+        return fail("momu data synth", f"cannot write {args.out}: {exc.strerror or exc}", EXIT_PROBLEMS)
     sys.stdout.write(f"wrote {total} clips ({cfg.skeleton}, {cfg.sample_rate} Hz) to {out}\n")
     return 0

@@ -1,12 +1,18 @@
 """``momu eval --gen DIR --gt DIR --metrics m1,m2 [--fps F] [--out FILE.json]``.
 
 Evaluates a folder of generated motions (``.npy``, ``(T, J, D)``) and/or music (``.wav``/``.flac``/
-``.ogg``/``.mp3``) against a folder of references, pairing files by stem (``a.npy`` ↔ ``a.npy``,
-``a.wav`` ↔ ``a.wav``). A generated item that lacks a modality takes it from its reference — the
-conditioning input: generated dances (``.npy`` only) are scored against the reference music, generated
-music (``.wav`` only) against the reference motion. Any registered metric runs by name, plugins
-included; ``--set NAME.KEY=VALUE`` sets a metric parameter. Prints a table; ``--out`` writes JSON with
-the scores and each metric's provenance (source, config, specification).
+``.ogg``/``.opus``/``.mp3``) against a folder of references, pairing files by stem (``a.npy`` ↔
+``a.npy``, ``a.wav`` ↔ ``a.wav``). A generated item that lacks a modality takes it from its reference
+— the conditioning input: generated dances (``.npy`` only) are scored against the reference music,
+generated music (``.wav`` only) against the reference motion. A metric never scores a filled-in
+modality (``beat_scores`` of motion-only folders is an error, not F1 = 1); generated and reference
+motion must share a skeleton and a frame rate (a ``<stem>.json`` beside a motion may give its
+``fps`` and ``skeleton``). Any registered metric runs by name, plugins included; ``--set
+NAME.KEY=VALUE`` sets a metric parameter. Prints a table; ``--out`` writes JSON with the scores,
+each metric's provenance (source, config, specification), its warnings and its errors.
+
+Exit status: 0 every metric scored; 1 a metric failed (the others are still reported and
+written); 2 a usage or input error (nothing computed, nothing written).
 """
 
 from __future__ import annotations
@@ -14,37 +20,24 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import logging
+import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from momu.cli.eval_inputs import EvalInputError, collect_folder, generated_modalities, load_pairs
 from momu.config import ConfigError, apply_overrides, to_container
 from momu.data.types import Clip
-from momu.io import write_json
-from momu.metrics._audio import read_audio
+from momu.errors import EXIT_OK, EXIT_PROBLEMS, UsageError
+from momu.io import check_output_file, write_json
+from momu.metrics.inputs import needs_of, within_roundoff
 from momu.registry import METRICS
 
-__all__ = ["add_parser", "run", "collect_folder", "load_pairs", "build_metrics", "evaluate"]
+__all__ = ["add_parser", "run", "collect_folder", "load_pairs", "build_metrics", "evaluate", "check_inputs"]
 
 logger = logging.getLogger(__name__)
-
-MOTION_SUFFIXES = (".npy",)
-AUDIO_SUFFIXES = (".wav", ".flac", ".ogg", ".mp3")
-# Joint layouts inferred from (J, D) when --skeleton is not given.
-_SKELETONS = {
-    (24, 3): "smpl24",
-    (14, 2): "openpose14",
-    (21, 3): "dwm21",
-    (23, 3): "dwm23",
-    (22, 3): "humanml22",
-}
-
-
-class EvalInputError(ValueError):
-    """Missing folders, unpaired or unreadable files."""
 
 
 def add_parser(sub: Any) -> None:
@@ -73,94 +66,6 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def collect_folder(folder: Path) -> dict[str, dict[str, Path]]:
-    """``stem -> {"motion": path, "audio": path}`` for the motion and audio files of ``folder``."""
-    if not folder.exists():
-        raise EvalInputError(f"{folder}: folder not found")
-    if not folder.is_dir():
-        raise EvalInputError(f"{folder}: not a folder")
-    items: dict[str, dict[str, Path]] = {}
-    for path in sorted(folder.iterdir()):
-        suffix = path.suffix.lower()
-        kind = "motion" if suffix in MOTION_SUFFIXES else "audio" if suffix in AUDIO_SUFFIXES else None
-        if kind is None or not path.is_file():
-            continue
-        entry = items.setdefault(path.stem, {})
-        if kind in entry:
-            raise EvalInputError(
-                f"{folder}: two {kind} files for '{path.stem}': {entry[kind].name}, {path.name}"
-            )
-        entry[kind] = path
-    if not items:
-        raise EvalInputError(
-            f"{folder}: no motion ({', '.join(MOTION_SUFFIXES)}) or audio ({', '.join(AUDIO_SUFFIXES)}) files"
-        )
-    return items
-
-
-def _load_motion(path: Path) -> np.ndarray:
-    try:
-        arr = np.load(path, allow_pickle=False)
-    except Exception as exc:
-        raise EvalInputError(f"{path}: cannot read as a .npy array: {exc}") from None
-    if arr.ndim != 3 or arr.shape[2] not in (2, 3):
-        raise EvalInputError(
-            f"{path}: expected joint positions (T, J, D) with D = 2 or 3, got shape {arr.shape}"
-        )
-    if not np.issubdtype(arr.dtype, np.number) or not np.all(np.isfinite(arr)):
-        raise EvalInputError(f"{path}: motion must hold finite numbers")
-    return np.asarray(arr, dtype=np.float32)
-
-
-def _clip(
-    stem: str, files: dict[str, Path], fallback: dict[str, Path], fps: float, skeleton: str | None
-) -> Clip:
-    motion_path = files.get("motion") or fallback.get("motion")
-    audio_path = files.get("audio") or fallback.get("audio")
-    motion = _load_motion(motion_path) if motion_path else None
-    audio, sr = (None, None)
-    if audio_path:
-        try:
-            audio, sr = read_audio(audio_path)
-        except (FileNotFoundError, ValueError) as exc:
-            raise EvalInputError(str(exc)) from None
-    name = skeleton or (_SKELETONS.get((motion.shape[1], motion.shape[2]), "") if motion is not None else "")
-    meta = {
-        "motion_file": str(motion_path) if motion_path else None,
-        "audio_file": str(audio_path) if audio_path else None,
-    }
-    return Clip(id=stem, motion=motion, fps=fps, audio=audio, sample_rate=sr, skeleton=name, meta=meta)
-
-
-def load_pairs(
-    gen_dir: Path, gt_dir: Path, fps: float, skeleton: str | None = None
-) -> tuple[list[Clip], list[Clip]]:
-    """Generated and reference clips paired by stem (sorted); missing generated modalities from the reference.
-
-    Raises:
-        EvalInputError: a folder is missing or empty, a stem is unpaired, or a file is unreadable.
-    """
-    if not fps > 0:
-        raise EvalInputError(f"--fps: must be > 0, got {fps}")
-    gen, gt = collect_folder(gen_dir), collect_folder(gt_dir)
-    only_gen, only_gt = sorted(set(gen) - set(gt)), sorted(set(gt) - set(gen))
-    if only_gen or only_gt:
-        parts = []
-        if only_gen:
-            parts.append(
-                f"{len(only_gen)} generated without a reference in {gt_dir}: {', '.join(only_gen[:10])}"
-            )
-        if only_gt:
-            parts.append(
-                f"{len(only_gt)} references without a generated item in {gen_dir}: {', '.join(only_gt[:10])}"
-            )
-        raise EvalInputError("unpaired files (pairs are matched by file stem): " + "; ".join(parts))
-    stems = sorted(gen)
-    generated = [_clip(s, gen[s], gt[s], fps, skeleton) for s in stems]
-    reference = [_clip(s, gt[s], {}, fps, skeleton) for s in stems]
-    return generated, reference
-
-
 def _metric_params(names: Sequence[str], overrides: Sequence[str]) -> dict[str, dict[str, Any]]:
     params: dict[str, dict[str, Any]] = {n: {} for n in names}
     tree = to_container(apply_overrides({}, overrides)) or {}
@@ -186,14 +91,58 @@ def build_metrics(names: Sequence[str], params: dict[str, dict[str, Any]]) -> di
     return built
 
 
+_MODALITY = {"motion": "motion (.npy)", "audio": "music (audio files)"}
+
+
+def check_inputs(
+    metrics: Mapping[str, Any], generated: Sequence[Clip], reference: Sequence[Clip]
+) -> dict[str, str]:
+    """Refuse a metric whose scored modality is not generated; warn about clips too short for it.
+
+    Returns ``metric -> warning`` for the metrics whose bins or windows some clips are too short
+    for (the score is reported, flagged).
+
+    Raises:
+        EvalInputError: a metric would score a modality the generated folder does not hold.
+    """
+    have = generated_modalities(generated)
+    warnings: dict[str, str] = {}
+    for name, metric in metrics.items():
+        needs = needs_of(name, metric)
+        if needs is None:
+            continue
+        if needs.scores and not have & set(needs.scores):
+            wanted = " or ".join(_MODALITY[m] for m in needs.scores)
+            raise EvalInputError(
+                f"metric '{name}' scores generated {wanted}, but the generated folder holds "
+                f"{' and '.join(sorted(have)) or 'neither'} for every pair (a missing modality is taken from "
+                "the reference as the condition, never scored)"
+            )
+        shortest = needs.shortest(metric)
+        short = [c for c in generated if c.duration < shortest]
+        if short:
+            warnings[name] = (
+                f"{len(short)} of {len(generated)} clips are shorter than {shortest:g} s (e.g. "
+                f"{short[0].id}: {short[0].duration:.2f} s): too few bins or beats, the score saturates"
+            )
+            logger.warning("metric %s: %s", name, warnings[name])
+    return warnings
+
+
 def evaluate(
     generated: Sequence[Clip], reference: Sequence[Clip], metrics: dict[str, Any]
 ) -> tuple[dict[str, float], dict[str, Any], dict[str, str]]:
-    """Run built metrics (``name -> metric``): ``(scores, provenance per metric, errors per metric)``."""
+    """Run built metrics (``name -> metric``): ``(scores, provenance per metric, errors per metric)``.
+
+    A metric that raises or returns something other than a mapping of numbers is reported in the
+    errors; the other metrics' scores are kept.
+    """
+    from tqdm import tqdm
+
     scores: dict[str, float] = {}
     provenance: dict[str, Any] = {}
     errors: dict[str, str] = {}
-    for name, metric in metrics.items():
+    for name, metric in tqdm(metrics.items(), desc="metrics", unit="metric", disable=None):
         entry = METRICS.get(name)
         info: dict[str, Any] = {"source": entry.source, "origin": entry.origin}
         try:
@@ -202,22 +151,85 @@ def evaluate(
             info["provenance"] = {"error": f"{type(exc).__name__}: {exc}"}
         provenance[name] = info
         try:
-            result = metric(list(generated), list(reference))
-        except (ValueError, ZeroDivisionError, KeyError, RuntimeError) as exc:
-            errors[name] = f"{type(exc).__name__}: {exc}"
+            result = _scores(name, metric(list(generated), list(reference)))
+        except Exception as exc:  # one failing metric must not lose the others' scores
+            errors[name] = f"{type(exc).__name__}: {str(exc) or 'no message'}"
             logger.error("metric %s failed: %s", name, errors[name])
             continue
-        for key, value in result.items():
-            scores[key] = float(value)
+        scores.update(result)
     return scores, provenance, errors
 
 
-def _table(scores: dict[str, float], errors: dict[str, str], n: int) -> str:
+def _scores(name: str, result: Any) -> dict[str, float]:
+    if not isinstance(result, Mapping):
+        raise TypeError(f"returned {type(result).__name__}, expected a mapping of score names to numbers")
+    out: dict[str, float] = {}
+    for key, value in result.items():
+        try:
+            out[str(key)] = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"score {key!r} is {type(value).__name__}, not a number") from None
+    return out
+
+
+def _flags(metrics: Mapping[str, Any], scores: Mapping[str, float]) -> dict[str, str]:
+    """``score key -> note`` for Fréchet distances within round-off of 0."""
+    flags: dict[str, str] = {}
+    for name, metric in metrics.items():
+        needs = needs_of(name, metric)
+        if needs is None or not needs.frechet:
+            continue
+        for key, value in scores.items():
+            if (
+                (key == name or key.startswith(name + "."))
+                and math.isfinite(value)
+                and within_roundoff(value)
+            ):
+                flags[key] = "≈ 0 within round-off: the two sets are indistinguishable"
+    return flags
+
+
+def _table(
+    scores: dict[str, float], errors: dict[str, str], n: int, flags: dict[str, str], warnings: dict[str, str]
+) -> str:
     width = max([len(k) for k in scores] + [len(k) for k in errors] + [6])
     lines = [f"{'metric':<{width}}  value   ({n} pairs)", f"{'-' * width}  {'-' * 12}"]
-    lines += [f"{k:<{width}}  {v:.6g}" for k, v in scores.items()]
+    for key, value in scores.items():
+        note = f"  ({flags[key]})" if key in flags else ""
+        lines.append(f"{key:<{width}}  {value:.6g}{note}")
     lines += [f"{k:<{width}}  FAILED: {msg}" for k, msg in errors.items()]
+    lines += [f"warning: {k}: {msg}" for k, msg in warnings.items()]
     return "\n".join(lines) + "\n"
+
+
+class _OncePerMessage(logging.Filter):
+    """Let each distinct log message through once (a per-clip warning is printed once, not 500 times)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.first: dict[tuple[str, int, str], logging.LogRecord] = {}
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        key = (record.name, record.levelno, record.getMessage())
+        first = self.first.setdefault(key, record)
+        return first is record  # the first record passes every handler; later copies none
+
+
+@contextmanager
+def _each_warning_once() -> Iterator[None]:
+    import warnings
+
+    once = _OncePerMessage()
+    handlers = logging.getLogger().handlers
+    for handler in handlers:
+        handler.addFilter(once)
+    with warnings.catch_warnings():
+        warnings.simplefilter("once")
+        try:
+            yield
+        finally:
+            for handler in handlers:
+                handler.removeFilter(once)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -227,13 +239,20 @@ def run(args: argparse.Namespace) -> int:
     for name in names:
         METRICS.get(name)  # unknown names fail before any file is read
     metrics = build_metrics(names, _metric_params(names, args.params))
-    try:
-        generated, reference = load_pairs(args.gen, args.gt, args.fps, args.skeleton)
-    except EvalInputError as exc:
-        sys.stderr.write(f"momu eval: error: {exc}\n")
-        return 2
-    scores, provenance, errors = evaluate(generated, reference, metrics)
-    sys.stdout.write(_table(scores, errors, len(generated)))
+    if args.out is not None:
+        try:
+            check_output_file(args.out, "--out")
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+    with _each_warning_once():
+        try:
+            generated, reference = load_pairs(args.gen, args.gt, args.fps, args.skeleton, progress=True)
+            warnings = check_inputs(metrics, generated, reference)
+        except EvalInputError as exc:
+            raise UsageError(str(exc)) from None
+        scores, provenance, errors = evaluate(generated, reference, metrics)
+    flags = _flags(metrics, scores)
+    sys.stdout.write(_table(scores, errors, len(generated), flags, warnings))
     if args.out is not None:
         from momu import __version__
 
@@ -242,6 +261,8 @@ def run(args: argparse.Namespace) -> int:
             {
                 "scores": scores,
                 "errors": errors,
+                "warnings": warnings,
+                "flags": flags,
                 "metrics": provenance,
                 "inputs": {
                     "gen": str(args.gen),
@@ -257,4 +278,4 @@ def run(args: argparse.Namespace) -> int:
                 "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
             },
         )
-    return 1 if errors else 0
+    return EXIT_PROBLEMS if errors else EXIT_OK

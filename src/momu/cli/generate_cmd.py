@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import argparse
 import logging
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from momu.io import atomic_path, write_json
+from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy
+from momu.errors import UsageError
+from momu.io import atomic_path, check_output_file, write_json
+from momu.metrics._audio import read_audio
 
 log = logging.getLogger(__name__)
 
@@ -66,56 +68,78 @@ def _write_motion(path: Path, motion: np.ndarray, fps: float, skeleton: str) -> 
 
 
 def _read_audio(path: Path) -> tuple[np.ndarray, int]:
-    import soundfile as sf
-
-    if not path.is_file():
-        raise FileNotFoundError(f"--input {path}: audio file not found")
     try:
-        audio, sr = sf.read(str(path), dtype="float32", always_2d=True)
-    except RuntimeError as exc:
-        raise ValueError(f"--input {path}: cannot read audio: {exc}") from None
-    return audio.mean(axis=1), int(sr)
+        return read_audio(path)
+    except (FileNotFoundError, ValueError) as exc:
+        raise UsageError(f"--input {exc}") from None
 
 
 def _read_motion(path: Path, joints: int, dims: int) -> np.ndarray:
-    if not path.is_file():
-        raise FileNotFoundError(f"--input {path}: motion file not found")
     try:
-        motion = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        raise ValueError(f"--input {path}: not a plain .npy array: {exc}") from None
+        motion = load_npy(path)
+    except DataFileError as exc:
+        raise UsageError(f"--input {exc}") from None
     if motion.ndim != 3 or motion.shape[1:] != (joints, dims):
-        raise ValueError(f"--input {path}: motion must be (T, {joints}, {dims}), got {motion.shape}")
+        raise UsageError(f"--input {path}: motion must be (T, {joints}, {dims}), got {motion.shape}")
     if not np.all(np.isfinite(motion)):
-        raise ValueError(f"--input {path}: motion contains NaN or infinite values")
+        raise UsageError(f"--input {path}: motion contains NaN or infinite values")
     return motion.astype(np.float32)
+
+
+def _outputs(args: argparse.Namespace) -> list[Path]:
+    """Every file the task writes (checked before the model is loaded)."""
+    out: Path = args.out
+    if args.task == "joint":
+        return [out.with_suffix(".wav"), out.with_suffix(".npy"), out.with_suffix(".json")]
+    suffix = ".npy" if args.task == "music2motion" else ".wav"
+    if out.suffix.lower() != suffix:
+        raise UsageError(f"--out {out}: {args.task} writes a {suffix} file; give a name ending in {suffix}")
+    return [out, out.with_suffix(".json")] if args.task == "music2motion" else [out]
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Inputs, options and every output path, before any work."""
+    if args.task in ("music2motion", "motion2music"):
+        if args.input is None:
+            need = "an audio file" if args.task == "music2motion" else "a .npy motion file"
+            raise UsageError(f"--input: {args.task} needs {need}")
+        if not args.input.is_file():
+            raise UsageError(f"--input {args.input}: {absent_reason(args.input)}")
+        if args.task == "music2motion" and args.input.suffix.lower() not in AUDIO_SUFFIXES:
+            raise UsageError(
+                f"--input {args.input}: not an audio file (expected {', '.join(AUDIO_SUFFIXES)})"
+            )
+    if args.fps is not None and not args.fps > 0:
+        raise UsageError(f"--fps must be > 0, got {args.fps}")
+    if args.task == "joint" and not args.seconds > 0:
+        raise UsageError(f"--seconds must be > 0, got {args.seconds}")
+    model = Path(args.model)
+    if not model.is_dir():
+        raise UsageError(f"--model {model}: {absent_reason(model, 'model folder')}")
+    for path in _outputs(args):
+        try:
+            check_output_file(path, "--out")
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the subcommand; bad inputs print one line ``momu generate: error: ...`` and return 2."""
-    try:
-        return _run(args)
-    except (ValueError, FileNotFoundError) as exc:
-        sys.stderr.write(f"momu generate: error: {exc}\n")
-        return 2
-
-
-def _run(args: argparse.Namespace) -> int:
+    _check_arguments(args)
     from momu.methods.momu import MoMuModel
 
-    model = MoMuModel.load(args.model)
+    try:
+        model = MoMuModel.load(args.model)
+    except (ValueError, FileNotFoundError, OSError) as exc:
+        raise UsageError(f"--model {exc}") from None
     if args.bone_correction:
         model.cfg.bone_correction = True
     rates = model.rates
     if args.task == "music2motion":
-        if args.input is None:
-            raise ValueError("--input: music2motion needs an audio file")
         audio, sr = _read_audio(args.input)
         (motion,) = model.music_to_motion([audio], sr, [args.seed], guidance_scale=args.guidance_scale)
         _write_motion(args.out, motion, rates.motion_fps, model.skeleton)
     elif args.task == "motion2music":
-        if args.input is None:
-            raise ValueError("--input: motion2music needs a .npy motion file")
         motion_vae = model.vae.motion_vae
         joints, dims = getattr(motion_vae, "num_joints", 0), getattr(motion_vae, "joint_dims", 0)
         motion = _read_motion(args.input, int(joints), int(dims))
@@ -124,8 +148,6 @@ def _run(args: argparse.Namespace) -> int:
         )
         _write_wav(args.out, audio, rates.sample_rate)
     else:
-        if args.seconds <= 0:
-            raise ValueError(f"--seconds must be > 0, got {args.seconds}")
         ((audio, motion),) = model.joint([args.seconds], [args.seed])
         _write_wav(args.out.with_suffix(".wav"), audio, rates.sample_rate)
         _write_motion(args.out.with_suffix(".npy"), motion, rates.motion_fps, model.skeleton)

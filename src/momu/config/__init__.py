@@ -17,7 +17,6 @@ A bare-name override (``backbone=unet1d``) replaces the whole node, dropping the
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -26,6 +25,7 @@ from typing import Any
 from omegaconf import DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
 
+from momu.config.keys import field_names, find_env_interpolation, innermost_node
 from momu.io import atomic_write_text
 from momu.registry import KINDS, Entry, PluginError, RegistryError, registry_for, singular
 
@@ -43,7 +43,28 @@ __all__ = [
 
 
 class ConfigError(ValueError):
-    """A config that cannot be loaded or does not validate; the message names the key."""
+    """A config that cannot be loaded or does not validate; the message names the key.
+
+    Attributes:
+        key: the dotted key at fault, when one is (``method.train_diffusion.stpes``).
+    """
+
+    def __init__(self, message: str, key: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+def _unknown_key(schema: type, key: str, path: str, label: str = "") -> ConfigError:
+    """``<path.key>: unknown key for <innermost node>; valid keys: <that node's fields>``."""
+    prefix, cls = innermost_node(schema, key)
+    full = _join(path, key)
+    valid = ", ".join(field_names(cls))
+    if prefix:
+        owner = f" of {label}" if label else ""
+        where = f" for {_join(path, prefix)} ({cls.__name__}){owner}"
+    else:
+        where = f" for {label}" if label else ""
+    return ConfigError(f"{full}: unknown key{where}; valid keys: {valid}", key=full)
 
 
 def component_kind(key: str) -> tuple[str, bool] | None:
@@ -93,16 +114,17 @@ def _merge_params(entry: Entry, params: Mapping[str, Any], path: str) -> Any:
             raise ConfigError(f"{path}: {label} takes no parameters, got {', '.join(map(str, params))}")
         return OmegaConf.create({})
     schema = OmegaConf.structured(entry.config)
-    valid = ", ".join(f.name for f in dataclasses.fields(entry.config))
     try:
         return OmegaConf.merge(schema, dict(params))
     except (ConfigKeyError, ConfigAttributeError) as exc:
         key = getattr(exc, "full_key", None) or getattr(exc, "key", None) or "?"
-        raise ConfigError(f"{_join(path, key)}: unknown key for {label}; valid keys: {valid}") from None
+        raise _unknown_key(entry.config, str(key), path, label) from None
     except OmegaConfBaseException as exc:
         key = getattr(exc, "full_key", None) or "?"
         msg = str(exc).splitlines()[0]
-        raise ConfigError(f"{_join(path, key)}: invalid value for {label}: {msg}") from None
+        raise ConfigError(
+            f"{_join(path, key)}: invalid value for {label}: {msg}", key=_join(path, key)
+        ) from None
 
 
 def _validate_component(node: Any, kind: str, path: str) -> dict[str, Any]:
@@ -133,27 +155,56 @@ def _validate_tree(tree: Mapping[str, Any], path: str) -> dict[str, Any]:
     return out
 
 
-def validate(cfg: Any, schema: type | None = None) -> DictConfig:
-    """Validate every component node of ``cfg`` (and the top level against ``schema``); freeze it.
+def _refuse_env_interpolation(cfg: Any) -> None:
+    key = find_env_interpolation(_plain(cfg, resolve=False))
+    if key is not None:
+        raise ConfigError(
+            f"{key}: ${{oc.env:...}} interpolation is disabled in momu configs (it would copy "
+            "environment values such as tokens into printed and saved configs); write the value, or "
+            "let the shell expand it in an override (key=$VAR)",
+            key=key,
+        )
+
+
+def _check_schema(resolved: dict[str, Any], schema: type, fill_defaults: bool) -> dict[str, Any]:
+    """Merge ``resolved`` into ``schema``; top-level component nodes it does not declare pass through.
+
+    Component nodes were validated against their parts already; every other key must be a field.
+    """
+    declared = set(field_names(schema))
+    passthrough = {k: v for k, v in resolved.items() if k not in declared and component_kind(str(k))}
+    rest = {k: v for k, v in resolved.items() if k not in passthrough}
+    try:
+        checked = OmegaConf.merge(OmegaConf.structured(schema), rest)
+    except (ConfigKeyError, ConfigAttributeError) as exc:
+        key = getattr(exc, "full_key", None) or getattr(exc, "key", None) or "?"
+        raise _unknown_key(schema, str(key), "") from None
+    except OmegaConfBaseException as exc:
+        key = getattr(exc, "full_key", None) or "?"
+        raise ConfigError(f"{key}: invalid value: {str(exc).splitlines()[0]}", key=str(key)) from None
+    if not fill_defaults:
+        return resolved
+    merged: Any = OmegaConf.to_container(checked, resolve=True)
+    return {**merged, **passthrough}
+
+
+def validate(cfg: Any, schema: type | None = None, *, fill_defaults: bool = True) -> DictConfig:
+    """Validate every component node of ``cfg`` (and every other key against ``schema``); freeze it.
+
+    ``${oc.env:...}`` interpolations are refused (they would copy secrets into saved configs).
+    With ``fill_defaults=False`` the schema checks keys and types but adds no missing keys.
 
     Raises:
-        ConfigError: the first bad key, named by its dotted path, with the valid keys.
+        ConfigError: the first bad key, named by its dotted path, with the valid keys of the
+            innermost node it falls in.
     """
+    _refuse_env_interpolation(cfg)
     tree = _plain(cfg)
     if not isinstance(tree, Mapping):
         raise ConfigError(f"a config must be a mapping at the top level, got {type(tree).__name__}")
     resolved = _validate_tree(tree, "")
     if schema is not None:
-        valid = ", ".join(f.name for f in dataclasses.fields(schema))
-        try:
-            checked = OmegaConf.merge(OmegaConf.structured(schema), resolved)
-        except (ConfigKeyError, ConfigAttributeError) as exc:
-            key = getattr(exc, "full_key", None) or "?"
-            raise ConfigError(f"{key}: unknown key; valid keys: {valid}") from None
-        except OmegaConfBaseException as exc:
-            key = getattr(exc, "full_key", None) or "?"
-            raise ConfigError(f"{key}: invalid value: {str(exc).splitlines()[0]}") from None
-        resolved = OmegaConf.to_container(checked, resolve=True)  # type: ignore[assignment]
+        resolved = _check_schema(resolved, schema, fill_defaults)
     out = OmegaConf.create(resolved)
     OmegaConf.set_readonly(out, True)
     return out
@@ -201,17 +252,27 @@ def apply_overrides(cfg: Any, overrides: Iterable[str]) -> DictConfig:
     sets params of the existing node. Interpolations (``${...}``) are resolved after all
     overrides, so an override reaches every node that refers to the overridden one.
     """
-    tree = OmegaConf.create(_plain(cfg, resolve=False) if cfg is not None else {})
+    # bare names are expanded once here and in each inserted value (not the whole tree per override)
+    tree = OmegaConf.create(_expand_bare_names(_plain(cfg, resolve=False)) if cfg is not None else {})
     for text in overrides:
         key, value = _parse_override(text)
-        tree = OmegaConf.create(_expand_bare_names(_plain(tree, resolve=False)))
         leaf = key.rsplit(".", 1)[-1]
         names_part = not isinstance(value, dict) or "name" in value
         replace = component_kind(leaf) is not None and names_part
-        try:
-            OmegaConf.update(tree, key, value, merge=not replace, force_add=True)
-        except OmegaConfBaseException as exc:
-            raise ConfigError(f"override {text!r}: {str(exc).splitlines()[0]}") from None
+        if leaf.isdigit():  # an item of a component list: expand the list around it afterwards
+            tree = _update(tree, key, value, replace, text)
+            tree = OmegaConf.create(_expand_bare_names(_plain(tree, resolve=False)))
+            continue
+        value = _expand_bare_names({leaf: value})[leaf]
+        tree = _update(tree, key, value, replace, text)
+    return tree
+
+
+def _update(tree: DictConfig, key: str, value: Any, replace: bool, text: str) -> DictConfig:
+    try:
+        OmegaConf.update(tree, key, value, merge=not replace, force_add=True)
+    except OmegaConfBaseException as exc:
+        raise ConfigError(f"override {text!r}: {str(exc).splitlines()[0]}") from None
     return tree
 
 
@@ -219,8 +280,10 @@ def load_config(
     source: str | Path | Mapping[str, Any] | DictConfig | None = None,
     overrides: Iterable[str] = (),
     schema: type | None = None,
+    *,
+    fill_defaults: bool = True,
 ) -> DictConfig:
-    """Load a YAML file (or mapping), apply overrides, validate and freeze.
+    """Load a YAML file (or mapping), apply overrides, validate (see :func:`validate`) and freeze.
 
     Raises:
         ConfigError: unreadable file, bad YAML, bad override, or a key that does not validate.
@@ -235,7 +298,7 @@ def load_config(
             raise ConfigError(f"{path}: cannot parse YAML: {str(exc).splitlines()[0]}") from None
     else:
         base = source or {}
-    return validate(apply_overrides(base, overrides), schema)
+    return validate(apply_overrides(base, overrides), schema, fill_defaults=fill_defaults)
 
 
 def instantiate_config(entry: Entry, params: Mapping[str, Any]) -> Any:

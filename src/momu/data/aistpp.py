@@ -8,7 +8,9 @@ Layout under ``root`` (the AIST++ annotations folder, plus the AIST music)::
     keypoints2d/<seq>.pkl    {"keypoints2d": (9, T, 17, 3) (x, y, confidence per camera view), ...}
     splits/crossmodal_{train,val,test}.txt   one sequence name per line
     ignore_list.txt          sequences to skip (whitespace and ``.json``/``.pkl`` suffixes tolerated)
-    wavs/mBR0.wav ...        the music, by music id (``music_dir``; may also be an absolute path)
+    wavs/mBR0.wav ...        the music, by music id: ``wavs/`` (EDGE), ``all_musics/`` (Bailando,
+                             mint) or ``music/``, found in that order (``music_dir`` names another
+                             folder, relative to ``root`` or absolute)
 
 A sequence name such as ``gBR_sBM_cAll_d04_mBR0_ch01`` reads genre ``gBR``, situation ``sBM``
 (basic) or ``sFM`` (advanced), camera ``cAll``, dancer ``d04``, music id ``mBR0`` (the 5th
@@ -41,6 +43,7 @@ from momu.data.common import (
     LazyClipDataset,
     LoaderConfig,
     MissingDataFileError,
+    absent_reason,
     check_split,
     clean_keypoints,
     load_audio,
@@ -72,6 +75,10 @@ GENRES = {
 
 _CAMERA = re.compile(r"^c(\d\d|All)$")
 
+MUSIC_DIRS = ("wavs", "all_musics", "music")
+"""Music folders under ``root``, in the order they are looked for: EDGE's ``wavs/``, Bailando's and
+mint's ``all_musics/``, and ``music/``."""
+
 
 @dataclass
 class AISTPPConfig(LoaderConfig):
@@ -82,25 +89,29 @@ class AISTPPConfig(LoaderConfig):
             (every sequence with a motion file).
         motion: ``keypoints3d`` (default), ``keypoints3d_optim`` or ``keypoints2d``.
         view: camera view index (0 = ``c01``) for ``keypoints2d``.
-        music_dir: folder of ``<music id>.wav``, relative to ``root`` or absolute.
+        music_dir: folder of ``<music id>.wav``, relative to ``root`` or absolute; ``None`` (default)
+            finds it among :data:`MUSIC_DIRS`.
         fps: motion frame rate (AIST++: 60).
         units_scale: factor applied to 3D keypoints (AIST++ stores centimetres; 0.01 gives metres).
         min_confidence: 2D keypoints with confidence <= this are treated as missing.
         max_gap: longest run of missing frames that is interpolated (frames).
         load_smpl: put the SMPL parameters of ``motions/<seq>.pkl`` in ``meta`` when that folder exists.
         length_tolerance_seconds: how much shorter than the motion the music may be.
+        max_pickle_mb: the largest pickle (and total array data declared in one) that is read, in
+            MiB (:mod:`momu.data.safe_pickle` refuses larger ones before allocating).
     """
 
     split: str = "train"
     motion: str = "keypoints3d"
     view: int = 0
-    music_dir: str = "wavs"
+    music_dir: str | None = None
     fps: float = 60.0
     units_scale: float = 0.01
     min_confidence: float = 0.0
     max_gap: int | None = 60
     load_smpl: bool = True
     length_tolerance_seconds: float = 1.0
+    max_pickle_mb: float = 1024.0
 
 
 def normalize_sequence_name(name: str) -> str:
@@ -141,11 +152,11 @@ def parse_sequence_name(name: str) -> dict[str, str]:
     }
 
 
-def _pickle_dict(path: Path) -> dict[str, Any]:
+def _pickle_dict(path: Path, max_bytes: int) -> dict[str, Any]:
     if not path.is_file():
-        raise MissingDataFileError(path, "file not found")
+        raise MissingDataFileError(path, absent_reason(path))
     try:
-        data = safe_load(path)
+        data = safe_load(path, max_bytes=max_bytes)
     except UnsafePickleError as exc:
         reason = str(exc)
         raise DataFileError(
@@ -184,8 +195,9 @@ class AISTPPDataset(LazyClipDataset):
         self.motion_dir = root / ("keypoints2d" if cfg.motion == "keypoints2d" else "keypoints3d")
         if not self.motion_dir.is_dir():
             raise FileNotFoundError(f"{self.name}: {self.motion_dir} does not exist")
-        music = Path(cfg.music_dir).expanduser()
-        self.music_dir = music if music.is_absolute() else root / music
+        if cfg.max_pickle_mb <= 0:
+            raise ValueError(f"{self.name}: max_pickle_mb must be > 0, got {cfg.max_pickle_mb}")
+        self.max_pickle_bytes = int(cfg.max_pickle_mb * (1 << 20))
         self.smpl_dir = root / "motions"
 
         ignore_file = root / "ignore_list.txt"
@@ -210,13 +222,37 @@ class AISTPPDataset(LazyClipDataset):
             if seq in self.ignored:
                 continue
             refs.append(ItemRef(seq, self.motion_dir / f"{seq}.pkl", {"split": split_of.get(seq, "none")}))
+        # the music folder last: a missing split file or motion folder is the first thing to fix
+        self.music_dir = (
+            self._music_dir(root, cfg) if cfg.load_audio else root / (cfg.music_dir or MUSIC_DIRS[0])
+        )
         super().__init__(cfg, root, refs)
         self.cfg: AISTPPConfig = cfg
+
+    def _music_dir(self, root: Path, cfg: AISTPPConfig) -> Path:
+        """``music_dir`` if given (it must exist), else the first of :data:`MUSIC_DIRS` under ``root``."""
+        if cfg.music_dir:
+            music = Path(cfg.music_dir).expanduser()
+            folder = music if music.is_absolute() else root / music
+            if not folder.is_dir():
+                raise FileNotFoundError(
+                    f"{self.name}: music_dir={cfg.music_dir}: folder {folder} not found (the folder of "
+                    "<music id>.wav files; or load_audio=false for motion only)"
+                )
+            return folder
+        for name in MUSIC_DIRS:
+            if (root / name).is_dir():
+                return root / name
+        looked = ", ".join(f"{n}/" for n in MUSIC_DIRS)
+        raise FileNotFoundError(
+            f"{self.name}: no music folder under {root} (looked for {looked}); set music_dir=DIR "
+            "(absolute or relative to root), or load_audio=false for motion only"
+        )
 
     # -------------------------------------------------------------------------------- loading
     def _keypoints(self, path: Path) -> tuple[np.ndarray, dict[str, Any]]:
         cfg = self.cfg
-        data = _pickle_dict(path)
+        data = _pickle_dict(path, self.max_pickle_bytes)
         joints, _ = skeleton_shape("coco17")
         meta: dict[str, Any] = {}
         if cfg.motion == "keypoints2d":
@@ -243,7 +279,7 @@ class AISTPPDataset(LazyClipDataset):
 
     def _smpl(self, seq: str, frames: int) -> dict[str, Any]:
         path = self.smpl_dir / f"{seq}.pkl"
-        data = _pickle_dict(path)
+        data = _pickle_dict(path, self.max_pickle_bytes)
         poses = _array(data, "smpl_poses", path).astype(np.float32)
         trans = _array(data, "smpl_trans", path).astype(np.float32)
         scaling = _array(data, "smpl_scaling", path).astype(np.float32).reshape(-1)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from momu.data.common import (
+    AUDIO_SUFFIXES,
     DataFileError,
     ItemRef,
     LazyClipDataset,
@@ -35,8 +36,6 @@ from momu.data.types import Clip
 from momu.registry import DATASETS
 
 __all__ = ["BallroomConfig", "BallroomDataset", "read_beats_file"]
-
-AUDIO_SUFFIXES = (".wav", ".flac", ".mp3", ".ogg")
 
 
 @dataclass

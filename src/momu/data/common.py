@@ -12,8 +12,10 @@ each clip is read, validated and cleaned when it is indexed.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import hashlib
 import logging
+import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +36,8 @@ __all__ = [
     "read_lines",
     "read_json_file",
     "load_npy",
+    "npy_header",
+    "absent_reason",
     "load_audio",
     "audio_info",
     "clean_keypoints",
@@ -46,14 +50,24 @@ __all__ = [
     "PER_FRAME_META",
     "check_split",
     "sorted_items",
+    "AUDIO_SUFFIXES",
+    "printable",
 ]
 
 logger = logging.getLogger(__name__)
 
 SPLITS = ("train", "val", "test", "all")
 
+AUDIO_SUFFIXES = (".wav", ".flac", ".ogg", ".opus", ".mp3")
+"""Audio files momu reads everywhere (``generate``, ``eval``, the loaders): what libsndfile decodes."""
+
 PER_FRAME_META = ("confidence", "smpl_poses", "smpl_trans")
 """``Clip.meta`` keys holding per-motion-frame arrays (cropped with the motion by :func:`crop_clip`)."""
+
+
+def printable(text: object) -> str:
+    """``text`` with any undecodable file-name bytes shown as ``\\xNN`` (safe to print or write as JSON)."""
+    return str(text).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 class DataFileError(ValueError):
@@ -138,7 +152,7 @@ def read_lines(path: str | Path) -> list[str]:
     """The non-empty lines of a text file (split files, ignore lists, descriptions), stripped."""
     path = Path(path)
     if not path.is_file():
-        raise MissingDataFileError(path, "file not found")
+        raise _missing(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
@@ -151,7 +165,7 @@ def read_json_file(path: str | Path) -> Any:
     """Parse a JSON file; a missing or unreadable file raises :class:`DataFileError`."""
     path = Path(path)
     if not path.is_file():
-        raise MissingDataFileError(path, "file not found")
+        raise _missing(path)
     try:
         return read_json(path)
     except (OSError, ValueError) as exc:
@@ -160,29 +174,85 @@ def read_json_file(path: str | Path) -> Any:
         raise DataFileError(path, reason[len(prefix) :] if reason.startswith(prefix) else reason) from None
 
 
+def absent_reason(path: str | Path, what: str = "file") -> str:
+    """Why ``path`` cannot be opened as a ``what``: not found, a folder, a broken link, a link loop."""
+    path = Path(path)
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return "symbolic link loop"
+        if path.is_symlink():
+            return f"broken symbolic link (points to {os.readlink(path)})"
+        if exc.errno == errno.EACCES:
+            return "permission denied"
+        return f"{what} not found"
+    if path.is_dir():
+        return f"is a folder, expected a {what}"
+    return f"{what} not found"
+
+
+def _missing(path: Path, what: str = "file") -> MissingDataFileError:
+    return MissingDataFileError(path, absent_reason(path, what))
+
+
+def npy_header(path: str | Path) -> tuple[tuple[int, ...], np.dtype[Any], int]:
+    """``(shape, dtype, data offset)`` from a ``.npy`` header, checked against the file's size.
+
+    Nothing is allocated: a header declaring more data than the file holds (truncated or crafted)
+    is refused before ``np.load`` would allocate it.
+
+    Raises:
+        DataFileError: not a ``.npy`` file, a corrupt header, an object dtype, or a size mismatch.
+    """
+    path = Path(path)
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        magic = fh.read(6)
+        if magic != b"\x93NUMPY":
+            raise DataFileError(
+                path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)"
+            )
+        fh.seek(0)
+        try:
+            version = np.lib.format.read_magic(fh)
+            if version == (1, 0):
+                shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+            elif version in ((2, 0), (3, 0)):
+                shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+            else:
+                raise ValueError(f"version {version}")
+        except (ValueError, EOFError, OSError, SyntaxError) as exc:
+            raise DataFileError(path, f"not a valid .npy file (corrupt header: {exc})") from None
+        offset = fh.tell()
+    if dtype.hasobject:
+        raise DataFileError(path, "holds pickled Python objects; refusing to load (expected a numeric array)")
+    expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize if shape else dtype.itemsize
+    if expected != size - offset:
+        raise DataFileError(
+            path,
+            f"not a valid .npy file (truncated or corrupt: the header declares {expected} bytes of data, "
+            f"the file holds {size - offset})",
+        )
+    return tuple(int(n) for n in shape), dtype, offset
+
+
 def load_npy(path: str | Path) -> np.ndarray:
-    """Load a ``.npy`` array without admitting pickled objects."""
+    """Load a numeric ``.npy`` array without admitting pickled objects; errors name the file.
+
+    The header is checked first (:func:`npy_header`), so a corrupt or truncated file is "not a
+    valid .npy file" and nothing larger than the file is ever allocated.
+    """
     path = Path(path)
     if not path.is_file():
-        raise MissingDataFileError(path, "file not found")
-    with open(path, "rb") as f:
-        magic = f.read(6)
-    if magic != b"\x93NUMPY":
-        raise DataFileError(path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)")
+        raise _missing(path)
+    _, dtype, _ = npy_header(path)
+    if not np.issubdtype(dtype, np.number):
+        raise DataFileError(path, f"expected a numeric array, got dtype {dtype}")
     try:
         array = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        if "allow_pickle" in str(exc) or "pickle" in str(exc).lower():
-            raise DataFileError(
-                path, "holds pickled Python objects; refusing to load (expected a numeric array)"
-            ) from None
-        raise DataFileError(path, f"not a readable .npy array ({exc})") from None
-    except (OSError, EOFError) as exc:
-        raise DataFileError(path, f"not a readable .npy array ({exc})") from None
-    if not isinstance(array, np.ndarray):
-        raise DataFileError(path, f"expected a single .npy array, got {type(array).__name__}")
-    if not np.issubdtype(array.dtype, np.number):
-        raise DataFileError(path, f"expected a numeric array, got dtype {array.dtype}")
+    except (ValueError, OSError, EOFError) as exc:
+        raise DataFileError(path, f"not a valid .npy file ({exc})") from None
     return array
 
 
@@ -192,11 +262,11 @@ def audio_info(path: str | Path) -> tuple[int, int]:
 
     path = Path(path)
     if not path.is_file():
-        raise MissingDataFileError(path, "audio file not found")
+        raise _missing(path, "audio file")
     if path.stat().st_size == 0:
         raise DataFileError(path, "empty audio file (0 bytes)")
     try:
-        info = sf.info(str(path))
+        info = sf.info(os.fsencode(path))  # bytes: names that are not UTF-8 open too
     except Exception as exc:  # libsndfile raises its own error types (LibsndfileError, RuntimeError)
         raise DataFileError(path, f"cannot decode audio ({_sf_reason(exc)})") from None
     return int(info.samplerate), int(info.frames)
@@ -237,13 +307,13 @@ def load_audio(
 
     path = Path(path)
     if not path.is_file():
-        raise MissingDataFileError(path, "audio file not found")
+        raise _missing(path, "audio file")
     if offset < 0:
         raise DataFileError(path, f"negative audio offset {offset} s")
     if path.stat().st_size == 0:
         raise DataFileError(path, "empty audio file (0 bytes)")
     try:
-        with sf.SoundFile(str(path)) as f:
+        with sf.SoundFile(os.fsencode(path)) as f:
             sr = int(f.samplerate)
             total = int(f.frames)
             if total <= 0:
@@ -446,11 +516,14 @@ def hash_split(item_id: str, ratios: Sequence[float] = (0.9, 0.05, 0.05), seed: 
     """Deterministic train/val/test assignment of one id (MoMu §5: random 90%/5%/5% splits).
 
     The id is hashed with the seed to a number in [0, 1), so the split of an item depends only on
-    its id and the seed, not on which other items exist or their order.
+    its id and the seed, not on which other items exist or their order. An id from a file name that
+    is not valid UTF-8 hashes as the name's bytes.
     """
     if len(ratios) != 3 or any(r < 0 for r in ratios) or not np.isclose(sum(ratios), 1.0):
         raise ValueError(f"split ratios must be three non-negative numbers summing to 1, got {list(ratios)}")
-    digest = hashlib.sha256(f"{seed}:{item_id}".encode()).digest()
+    # surrogateescape: a file name that is not UTF-8 (os.listdir hands it back with lone surrogates)
+    # hashes as its raw bytes instead of failing the whole dataset
+    digest = hashlib.sha256(f"{seed}:{item_id}".encode("utf-8", "surrogateescape")).digest()
     u = int.from_bytes(digest[:8], "big") / 2.0**64
     if u < ratios[0]:
         return "train"

@@ -18,6 +18,18 @@ Every other global (``os.system``, ``builtins.eval``, ``subprocess.Popen``, ...)
 :class:`UnsafePickleError` *before* anything is called, so a crafted file cannot run code.
 Dicts, lists, tuples, strings, numbers, ``None`` and booleans need no global and load as usual.
 
+Memory bombs are refused before anything is allocated. A few bytes of pickle can otherwise ask
+for gigabytes: ``bytes(N)`` / ``bytearray(N)`` (N zero bytes from nothing), the ``numpy.ndarray(shape)``
+constructor (uninitialised memory that would be read as keypoints), an array whose declared shape
+does not match the data the file holds, or object-dtype arrays (whose elements are more pickled
+objects). The unpickler (the pure-Python one, so it can see each opcode) refuses
+
+* calling ``bytes``/``bytearray`` with a size, and the ``ndarray`` constructor at all;
+* object dtypes anywhere (a dtype, an array, a scalar);
+* an array whose data is not exactly ``prod(shape) × itemsize`` bytes held in the file;
+* a file, or a total of declared array data, larger than ``max_bytes``
+  (:data:`DEFAULT_MAX_BYTES`; ``aistpp``'s ``max_pickle_mb`` option sets it).
+
 momu never writes pickles; this module only reads them.
 """
 
@@ -26,13 +38,24 @@ from __future__ import annotations
 import collections
 import io
 import pickle
+import struct
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NoReturn
 
 import numpy as np
 
-__all__ = ["UnsafePickleError", "RestrictedUnpickler", "safe_load", "safe_loads", "ALLOWED_GLOBALS"]
+__all__ = [
+    "UnsafePickleError",
+    "RestrictedUnpickler",
+    "safe_load",
+    "safe_loads",
+    "ALLOWED_GLOBALS",
+    "DEFAULT_MAX_BYTES",
+]
+
+DEFAULT_MAX_BYTES = 1 << 30
+"""Largest pickle file, and largest total of array data declared in one, that is read (1 GiB)."""
 
 
 class UnsafePickleError(pickle.UnpicklingError):
@@ -86,20 +109,53 @@ ALLOWED_GLOBALS: frozenset[tuple[str, str]] = frozenset(_build_allowed())
 """The ``(module, name)`` pairs a pickle may reference."""
 
 
-class RestrictedUnpickler(pickle.Unpickler):
-    """An unpickler that resolves only :data:`ALLOWED_GLOBALS` (see the module docstring).
+class _Refused(UnsafePickleError):
+    pass
+
+
+def _nbytes(shape: Any, dtype: np.dtype[Any], source: str) -> int:
+    if isinstance(shape, (int, np.integer)):
+        shape = (shape,)
+    if not isinstance(shape, (tuple, list)) or not all(
+        isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 0 for n in shape
+    ):
+        raise UnsafePickleError(f"{source}: an array shape must be non-negative integers, got {shape!r}")
+    count = 1
+    for n in shape:
+        count *= int(n)
+    return count * int(dtype.itemsize)
+
+
+class RestrictedUnpickler(pickle._Unpickler):
+    """An unpickler that resolves only :data:`ALLOWED_GLOBALS` and refuses memory bombs (module docstring).
 
     Args:
         file: a binary file object positioned at the pickle.
         source: a name for error messages (the file path).
+        max_bytes: the most array data (bytes, summed over the file) that may be declared.
     """
 
-    def __init__(self, file: IO[bytes], *, source: str = "<pickle>") -> None:
+    dispatch: dict[int, Any] = dict(pickle._Unpickler.dispatch)  # type: ignore[attr-defined,misc]
+    stack: list[Any]  # the pure-Python unpickler's stack (untyped in the stubs)
+
+    def __init__(
+        self, file: IO[bytes], *, source: str = "<pickle>", max_bytes: int = DEFAULT_MAX_BYTES
+    ) -> None:
         # latin-1 lets Python 2 pickles of numpy arrays (their raw data is a py2 str) load.
         super().__init__(file, encoding="latin1")
         self._source = source
+        self._budget = int(max_bytes)
+        self._max_bytes = int(max_bytes)
         self._allowed = _build_allowed()
+        core = _numpy_core()
+        self._allowed[("numpy", "ndarray")] = np.ndarray
+        for package in ("numpy.core", "numpy._core"):
+            self._allowed[(f"{package}.multiarray", "_reconstruct")] = self._reconstruct
+            self._allowed[(f"{package}.numeric", "_frombuffer")] = self._frombuffer
+        self._np_reconstruct = core.multiarray._reconstruct
+        self._np_frombuffer = core.numeric._frombuffer
 
+    # ------------------------------------------------------------------ globals
     def find_class(self, module: str, name: str) -> Any:
         try:
             return self._allowed[(module, name)]
@@ -112,18 +168,120 @@ class RestrictedUnpickler(pickle.Unpickler):
     def persistent_load(self, pid: Any) -> Any:
         raise UnsafePickleError(f"{self._source}: persistent ids are not admitted ({pid!r})")
 
+    # ------------------------------------------------------------------ size checks
+    def _refuse(self, why: str) -> NoReturn:
+        raise _Refused(f"{self._source}: refusing {why} (the file may be corrupt or crafted)")
 
-def safe_loads(data: bytes, *, source: str = "<bytes>") -> Any:
+    def _spend(self, nbytes: int) -> None:
+        if nbytes > self._budget:
+            self._refuse(
+                f"an array of {nbytes} bytes: the file declares more than the {self._max_bytes}-byte limit "
+                "of array data (max_bytes / aistpp max_pickle_mb)"
+            )
+        self._budget -= nbytes
+
+    def _dtype(self, dtype: Any) -> np.dtype[Any]:
+        if not isinstance(dtype, np.dtype):
+            self._refuse(f"an array dtype of type {type(dtype).__name__}")
+        if dtype.hasobject:
+            self._refuse("an object-dtype array (its elements would be more pickled objects)")
+        return dtype
+
+    def _check_call(self, func: Any, args: tuple[Any, ...]) -> None:
+        if func is np.ndarray:
+            self._refuse("the numpy.ndarray(shape) constructor: it returns uninitialised memory")
+        if func in (bytes, bytearray) and args and isinstance(args[0], (int, np.integer)):
+            self._refuse(f"{func.__name__}({args[0]!r}): a size that builds zero bytes from nothing")
+
+    def _checked(self, value: Any) -> Any:
+        if isinstance(value, np.dtype) and value.hasobject:
+            self._refuse("an object dtype")
+        return value
+
+    def _reconstruct(self, subtype: Any, shape: Any, dtype: Any) -> Any:
+        """numpy's array reconstructor, admitted only as numpy's own pickles call it: an empty ndarray."""
+        if subtype is not np.ndarray:
+            self._refuse(f"an array of type {getattr(subtype, '__name__', subtype)!r}")
+        if _nbytes(shape, np.dtype(np.uint8), self._source) != 0:
+            self._refuse(f"_reconstruct of shape {shape!r}: numpy pickles start from an empty array")
+        return self._np_reconstruct(subtype, shape, dtype)
+
+    def _frombuffer(self, buf: Any, dtype: Any, shape: Any, order: Any) -> Any:
+        dtype = self._dtype(dtype)
+        nbytes = _nbytes(shape, dtype, self._source)
+        held = memoryview(buf).nbytes if isinstance(buf, (bytes, bytearray, memoryview)) else -1
+        if held != nbytes:
+            self._refuse(f"an array declaring {nbytes} bytes of data but holding {held}")
+        self._spend(nbytes)
+        return self._np_frombuffer(buf, dtype, shape, order)
+
+    def _check_array_state(self, state: Any) -> None:
+        """``ndarray.__setstate__((version,) shape, dtype, is_fortran, rawdata)`` before it runs."""
+        if not isinstance(state, tuple) or len(state) not in (4, 5):
+            self._refuse(f"an array state of type {type(state).__name__}")
+        shape, dtype, _, raw = state[-4:]
+        dtype = self._dtype(dtype)
+        nbytes = _nbytes(shape, dtype, self._source)
+        if not isinstance(raw, (bytes, bytearray, str)):
+            self._refuse(f"array data of type {type(raw).__name__}")
+        if len(raw) != nbytes:
+            self._refuse(f"an array declaring {nbytes} bytes of data but holding {len(raw)}")
+        self._spend(nbytes)
+
+    # ------------------------------------------------------------------ opcodes that construct
+    def load_reduce(self) -> None:
+        args = self.stack[-1]
+        self._check_call(self.stack[-2], args if isinstance(args, tuple) else ())
+        pickle._Unpickler.load_reduce(self)  # type: ignore[attr-defined]
+        self._checked(self.stack[-1])
+
+    def load_newobj(self) -> None:
+        args = self.stack[-1]
+        self._check_call(self.stack[-2], args if isinstance(args, tuple) else ())
+        pickle._Unpickler.load_newobj(self)  # type: ignore[attr-defined]
+        self._checked(self.stack[-1])
+
+    def load_newobj_ex(self) -> None:
+        args = self.stack[-2]
+        self._check_call(self.stack[-3], args if isinstance(args, tuple) else ())
+        pickle._Unpickler.load_newobj_ex(self)  # type: ignore[attr-defined]
+        self._checked(self.stack[-1])
+
+    def _instantiate(self, klass: Any, args: list[Any]) -> None:
+        self._check_call(klass, tuple(args))
+        pickle._Unpickler._instantiate(self, klass, args)  # type: ignore[attr-defined]
+        self._checked(self.stack[-1])
+
+    def load_build(self) -> None:
+        state, inst = self.stack[-1], self.stack[-2]
+        if isinstance(inst, np.ndarray):
+            self._check_array_state(state)
+        pickle._Unpickler.load_build(self)  # type: ignore[attr-defined]
+        self._checked(inst)
+
+    dispatch[pickle.REDUCE[0]] = load_reduce
+    dispatch[pickle.NEWOBJ[0]] = load_newobj
+    dispatch[pickle.NEWOBJ_EX[0]] = load_newobj_ex
+    dispatch[pickle.BUILD[0]] = load_build
+
+
+def safe_loads(data: bytes, *, source: str = "<bytes>", max_bytes: int = DEFAULT_MAX_BYTES) -> Any:
     """Unpickle ``data`` with :class:`RestrictedUnpickler`.
 
     Raises:
-        UnsafePickleError: a forbidden global, or a truncated / malformed stream (the message
-            names ``source``).
+        UnsafePickleError: a forbidden global, a memory bomb, or a truncated / malformed stream
+            (the message names ``source``).
     """
+    if len(data) > max_bytes:
+        raise UnsafePickleError(f"{source}: {len(data)} bytes, more than the {max_bytes}-byte limit")
     try:
-        return RestrictedUnpickler(io.BytesIO(data), source=source).load()
+        return RestrictedUnpickler(io.BytesIO(data), source=source, max_bytes=max_bytes).load()
     except UnsafePickleError:
         raise
+    except MemoryError:
+        raise UnsafePickleError(f"{source}: not a readable pickle (out of memory while reading it)") from None
+    except RecursionError:
+        raise UnsafePickleError(f"{source}: not a readable pickle (nested too deeply)") from None
     except (
         pickle.UnpicklingError,
         EOFError,
@@ -132,19 +290,24 @@ def safe_loads(data: bytes, *, source: str = "<bytes>") -> Any:
         AttributeError,
         IndexError,
         KeyError,
+        struct.error,
+        OverflowError,
     ) as exc:
         raise UnsafePickleError(f"{source}: not a readable pickle ({type(exc).__name__}: {exc})") from None
 
 
-def safe_load(path: str | Path) -> Any:
+def safe_load(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> Any:
     """Read a pickle file through :class:`RestrictedUnpickler`.
 
     Raises:
         FileNotFoundError: ``path`` does not exist.
-        UnsafePickleError: the file names a forbidden global or is not a readable pickle; the
-            message names the file.
+        UnsafePickleError: the file names a forbidden global, declares more than ``max_bytes``,
+            or is not a readable pickle; the message names the file.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: file not found")
-    return safe_loads(path.read_bytes(), source=str(path))
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise UnsafePickleError(f"{path}: {size} bytes, more than the {max_bytes}-byte limit (max_bytes)")
+    return safe_loads(path.read_bytes(), source=str(path), max_bytes=max_bytes)

@@ -2,12 +2,16 @@
 
 Methods train through :meth:`RunContext.stage`. A stage is identified by a *key*: everything
 that determines its weights (its config, the data config, the seed, the keys of the stages it
-builds on). The trained weights are stored under ``<out>/parts/<name>-<hash(key)>/``, so
+builds on) plus what the run adds (:func:`run_facts`: the process count and the effective batch,
+the CPU thread count, the device type and mixed precision — each changes the numbers), without
+the training settings that do not (checkpoint and logging intervals). The trained weights are
+stored under ``<out>/parts/<name>-<hash(key)>/``, so
 
 * rows of a table that share a stage (same key) train it once and reuse it;
 * re-running one row, or resuming a run, loads the stages already trained instead of
   retraining them;
-* a changed config changes the key and trains a new stage — never a stale reuse.
+* a changed config changes the key and trains a new stage — never a stale reuse, also not of a
+  stage trained by a different number of processes.
 """
 
 from __future__ import annotations
@@ -23,15 +27,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import torch
 from accelerate import Accelerator
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
-from momu.engine.trainer import LossFn, TrainConfig, train_stage
-from momu.io import atomic_path, read_json, write_json
+from momu.engine.trainer import WEIGHT_NEUTRAL_FIELDS, LossFn, TrainConfig, train_stage
+from momu.io import read_json, write_json
+from momu.weights_io import write_safetensors
 
-__all__ = ["RunContext", "stage_key_hash"]
+__all__ = ["RunContext", "stage_key_hash", "run_facts", "stage_identity"]
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +46,37 @@ def stage_key_hash(key: Mapping[str, Any]) -> str:
     """A short, stable hash of a stage key (JSON with sorted keys)."""
     text = json.dumps(key, sort_keys=True, default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
+
+
+def run_facts(accelerator: Accelerator, cfg: TrainConfig) -> dict[str, Any]:
+    """What the run adds to a stage's key: everything besides the config that changes the weights."""
+    n = int(accelerator.num_processes)
+    return {
+        "num_processes": n,
+        "effective_batch": int(cfg.batch_size) * n * int(cfg.grad_accum),
+        "threads": int(torch.get_num_threads()),
+        "device": accelerator.device.type,
+        "mixed_precision": str(accelerator.mixed_precision),
+    }
+
+
+def _without_neutral(node: Any) -> Any:
+    """``node`` without the weight-neutral training fields under any ``train`` mapping."""
+    if isinstance(node, Mapping):
+        out = {}
+        for k, v in node.items():
+            if k == "train" and isinstance(v, Mapping):
+                v = {tk: tv for tk, tv in v.items() if tk not in WEIGHT_NEUTRAL_FIELDS}
+            out[k] = _without_neutral(v)
+        return out
+    if isinstance(node, list):
+        return [_without_neutral(v) for v in node]
+    return node
+
+
+def stage_identity(key: Mapping[str, Any], accelerator: Accelerator, cfg: TrainConfig) -> dict[str, Any]:
+    """The key naming a stage's folder: the method's key (less weight-neutral fields) + :func:`run_facts`."""
+    return {**_without_neutral(dict(key)), "run": run_facts(accelerator, cfg)}
 
 
 @dataclass
@@ -104,14 +141,15 @@ class RunContext:
         ``dataset`` may be a callable so that reusing a cached stage does not build its data.
         Returns the trained (unwrapped) model in eval mode.
         """
-        folder = self.parts_dir / f"{name}-{stage_key_hash(key)}"
+        identity = stage_identity(key, self.accelerator, cfg)
+        folder = self.parts_dir / f"{name}-{stage_key_hash(identity)}"
         with self.lock(folder.name):
-            return self._stage(name, key, folder, model, dataset, loss_fn, cfg, collate_fn)
+            return self._stage(name, identity, folder, model, dataset, loss_fn, cfg, collate_fn)
 
     def _stage(
         self,
         name: str,
-        key: Mapping[str, Any],
+        identity: Mapping[str, Any],
         folder: Path,
         model: nn.Module,
         dataset: Dataset[Any] | Callable[[], Dataset[Any]],
@@ -140,10 +178,8 @@ class RunContext:
                 resume=self.resume,
             )
         if self.accelerator.is_main_process:
-            state = {k: v.detach().cpu().contiguous() for k, v in trained.state_dict().items()}
-            with atomic_path(weights) as tmp:
-                save_file(state, str(tmp))
-            write_json(folder / "stage.json", {"name": name, "key": dict(key), "train": cfg.__dict__})
+            write_safetensors(weights, trained.state_dict())
+            write_json(folder / "stage.json", {"name": name, "key": dict(identity), "train": cfg.__dict__})
         self.accelerator.wait_for_everyone()
         self.trained[folder.name] = "trained"
         return trained

@@ -8,15 +8,28 @@ writes nothing as pickle, so the engine saves the same state itself:
   the rest of its structure (param groups, scalar entries) as JSON;
 * ``rng_<rank>.safetensors`` + ``rng_<rank>.json`` — torch (CPU and CUDA), numpy and Python RNG
   states of each process;
-* ``trainer.json`` — the step counter and anything else the loop needs to resume.
+* ``trainer.json`` — the step counter and anything else the loop needs to resume;
+* ``complete.json`` — written last: every file of the checkpoint with its size.
 
-A checkpoint folder is written under a temporary name and renamed when complete, so a pre-empted
-save never leaves a checkpoint that looks valid but is not.
+Crash safety (a process may be killed between any two system calls):
+
+* a checkpoint is written under ``.staging_<step>`` and becomes ``step_<step>`` by one rename,
+  after its ``complete.json``; a folder counts as a checkpoint only if that marker is there and
+  every file it lists has the listed size;
+* replacing ``step_<n>`` renames the old one to ``.replaced_<n>`` first, and pruning renames a
+  checkpoint to ``.pruned_<n>`` before deleting it, so no half-deleted folder is ever named
+  ``step_*``;
+* :func:`recover_checkpoints` (run before every save and before resuming) finishes what a killed
+  save started — a complete ``.staging_<n>`` or ``.replaced_<n>`` whose ``step_<n>`` is missing or
+  incomplete is renamed into place — and removes the leftovers; incomplete ``step_*`` folders are
+  reported and skipped, never deleted.
 """
 
 from __future__ import annotations
 
 import json
+import logging
+import os
 import random
 import shutil
 from collections.abc import Mapping
@@ -25,9 +38,10 @@ from typing import Any
 
 import numpy as np
 import torch
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load_file
 
 from momu.io import read_json, write_json
+from momu.weights_io import write_safetensors
 
 __all__ = [
     "flatten_state",
@@ -38,7 +52,18 @@ __all__ = [
     "load_tensors_and_json",
     "checkpoint_dirs",
     "latest_checkpoint",
+    "prune_checkpoints",
+    "mark_complete",
+    "is_complete",
+    "incomplete_checkpoints",
+    "recover_checkpoints",
+    "replace_checkpoint",
+    "COMPLETE_MARKER",
 ]
+
+log = logging.getLogger(__name__)
+
+COMPLETE_MARKER = "complete.json"
 
 _TENSOR = "__tensor__"
 
@@ -90,7 +115,7 @@ def unflatten_state(skeleton: Any, tensors: Mapping[str, torch.Tensor]) -> Any:
 def save_tensors_and_json(directory: Path, stem: str, state: Any) -> None:
     """Write ``state`` as ``<stem>.safetensors`` (its tensors) and ``<stem>.json`` (the rest)."""
     skeleton, tensors = flatten_state(state)
-    save_file(tensors, str(directory / f"{stem}.safetensors"))
+    write_safetensors(directory / f"{stem}.safetensors", tensors)
     write_json(directory / f"{stem}.json", skeleton)
 
 
@@ -140,12 +165,52 @@ def restore_rng(state: Mapping[str, Any]) -> None:
         torch.cuda.set_rng_state_all(list(state["cuda"]))
 
 
-def checkpoint_dirs(root: Path) -> list[Path]:
-    """Complete checkpoints under ``root`` (``step_<n>`` folders with a ``trainer.json``), oldest first."""
+def _step(path: Path) -> int:
+    return int(path.name.rsplit("_", 1)[1])
+
+
+def mark_complete(directory: Path, step: int) -> None:
+    """Write ``complete.json`` (every file of ``directory`` and its size); call it last."""
+    files = {
+        p.name: p.stat().st_size
+        for p in sorted(directory.iterdir())
+        if p.is_file() and p.name != COMPLETE_MARKER
+    }
+    write_json(directory / COMPLETE_MARKER, {"step": int(step), "files": files})
+
+
+def is_complete(directory: Path) -> bool:
+    """``directory`` holds its ``complete.json`` and every file it lists, at the listed size."""
+    try:
+        record = read_json(directory / COMPLETE_MARKER)
+        files = record["files"]
+        return bool(files) and all((directory / n).stat().st_size == int(size) for n, size in files.items())
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False
+
+
+def _step_dirs(root: Path, pattern: str) -> list[Path]:
     if not root.is_dir():
         return []
-    found = [p for p in root.glob("step_*") if p.is_dir() and (p / "trainer.json").is_file()]
-    return sorted(found, key=lambda p: int(p.name.split("_")[1]))
+    found = []
+    for p in root.glob(pattern):
+        try:
+            _step(p)
+        except ValueError:
+            continue
+        if p.is_dir():
+            found.append(p)
+    return sorted(found, key=_step)
+
+
+def checkpoint_dirs(root: Path) -> list[Path]:
+    """Complete checkpoints under ``root`` (``step_<n>`` folders with a valid marker), oldest first."""
+    return [p for p in _step_dirs(root, "step_*") if is_complete(p)]
+
+
+def incomplete_checkpoints(root: Path) -> list[Path]:
+    """``step_*`` folders under ``root`` that are not complete checkpoints (skipped by resume)."""
+    return [p for p in _step_dirs(root, "step_*") if not is_complete(p)]
 
 
 def latest_checkpoint(root: Path) -> Path | None:
@@ -154,9 +219,51 @@ def latest_checkpoint(root: Path) -> Path | None:
     return dirs[-1] if dirs else None
 
 
+def _discard(path: Path) -> None:
+    """Rename ``path`` out of the ``step_*`` namespace, then delete it (a kill leaves no half-folder)."""
+    trash = path.with_name(f".pruned_{_step(path):08d}_{os.getpid()}")
+    os.rename(path, trash)
+    shutil.rmtree(trash, ignore_errors=True)
+
+
+def replace_checkpoint(staging: Path, final: Path) -> None:
+    """Move the complete ``staging`` folder to ``final``, keeping an old ``final`` until it is in place."""
+    old = final.with_name(f".replaced_{_step(final):08d}")
+    if final.exists():
+        shutil.rmtree(old, ignore_errors=True)
+        os.rename(final, old)
+    os.rename(staging, final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def recover_checkpoints(root: Path) -> list[str]:
+    """Finish or undo what killed saves left under ``root``; returns one line per action taken.
+
+    A complete ``.staging_<n>`` or ``.replaced_<n>`` becomes ``step_<n>`` when that is missing or
+    incomplete; other leftovers (incomplete staging, ``.pruned_*``) are deleted. Incomplete ``step_*``
+    folders are left alone (and skipped by :func:`checkpoint_dirs`).
+    """
+    notes: list[str] = []
+    if not root.is_dir():
+        return notes
+    for pattern in (".staging_*", ".replaced_*"):
+        for candidate in _step_dirs(root, pattern):
+            final = root / f"step_{_step(candidate):08d}"
+            if is_complete(candidate) and not is_complete(final):
+                if final.exists():
+                    os.rename(final, final.with_name(f".pruned_{_step(final):08d}_{os.getpid()}"))
+                os.rename(candidate, final)
+                notes.append(f"{final}: restored from {candidate.name} (a save was interrupted)")
+            else:
+                shutil.rmtree(candidate, ignore_errors=True)
+    for leftover in root.glob(".pruned_*"):
+        shutil.rmtree(leftover, ignore_errors=True)
+    return notes
+
+
 def prune_checkpoints(root: Path, keep: int) -> None:
-    """Delete all but the ``keep`` newest checkpoints (``keep`` ≤ 0 keeps all)."""
+    """Delete all but the ``keep`` newest complete checkpoints (``keep`` ≤ 0 keeps all)."""
     if keep <= 0:
         return
     for old in checkpoint_dirs(root)[:-keep]:
-        shutil.rmtree(old, ignore_errors=True)
+        _discard(old)

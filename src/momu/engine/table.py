@@ -32,11 +32,11 @@ from typing import Any
 
 import torch
 from omegaconf import DictConfig
-from threadpoolctl import threadpool_limits
 
-from momu.config import ConfigError, load_config, save_config, to_container
+from momu.config import ConfigError, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
+from momu.engine.preflight import check_datasets, check_outputs, row_config
 from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
 from momu.engine.table_report import render_markdown
@@ -50,6 +50,7 @@ from momu.engine.table_units import (
     run_units_in_workers,
 )
 from momu.engine.trainer import Preempted
+from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, UsageParser, fail
 from momu.io import atomic_write_text, write_json
 
 __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "parse_table_args"]
@@ -143,6 +144,8 @@ class TableSpec:
         baselines: the paper's other rows, reported and marked as not re-run.
         data_key: the config key of the dataset node (``--data`` sets it).
         notes: extra lines for ``results.md``.
+        check: ``check(row_config)`` run on every row before anything is created (raise
+            ``ValueError``/``OSError`` with a one-line reason, e.g. a dataset that does not open).
         default_seeds: ``preset -> seeds`` used without ``--seeds`` (committed reproductions use 3;
             a preset not listed uses the config's ``seed``).
         bootstrap_seed: seed of the comparisons' bootstrap (results are reproducible).
@@ -163,7 +166,7 @@ class TableSpec:
     data_key: str = "dataset"
     notes: Sequence[str] = ()
     preset_configs: Mapping[str, str | Path | Mapping[str, Any]] = field(default_factory=dict)
-    check: Callable[[Sequence[DictConfig]], None] | None = None
+    check: Callable[[DictConfig], None] | None = None
     default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
     bootstrap_seed: int = 0
 
@@ -175,8 +178,9 @@ def _csv(text: str) -> list[str]:
 def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> TableArgs:
     """Parse a recipe's command line."""
     default_preset = "paper" if torch.cuda.is_available() else "cpu"
-    parser = argparse.ArgumentParser(
+    parser = UsageParser(
         prog=f"accelerate launch recipes/{spec.name}.py",
+        error_prefix=spec.name,
         description=spec.title,
     )
     parser.add_argument(
@@ -280,16 +284,19 @@ def resolve_row_configs(spec: TableSpec, args: TableArgs) -> dict[str, DictConfi
         raise ConfigError(
             f"--preset {args.preset}: not defined for {spec.name}; valid: {', '.join(spec.presets)}"
         )
-    preset = [*spec.presets[args.preset], *_data_overrides(spec, args.data)]
+    preset, data = spec.presets[args.preset], _data_overrides(spec, args.data)
     configs: dict[str, DictConfig] = {}
     for row_id in args.rows:
         row = known[row_id]
-        try:  # preset and data first, then what makes the row, then the user's overrides
-            base = spec.preset_configs.get(args.preset, spec.base_config)
-            overrides = [*preset, *row.overrides_for(args.preset), *args.overrides]
-            configs[row_id] = load_config(base, overrides)
-        except ConfigError as exc:
-            raise ConfigError(f"row {row_id} ({row.name}): {exc}") from None
+        # preset, what makes the row, the user's overrides, then --data (it survives `dataset=NAME`)
+        configs[row_id] = row_config(
+            spec.preset_configs.get(args.preset, spec.base_config),
+            f"row {row_id} ({row.name})",
+            row.overrides_for(args.preset),
+            preset,
+            args.overrides,
+            data,
+        )
     return configs
 
 
@@ -355,25 +362,35 @@ def _units(spec: TableSpec, configs: Mapping[str, DictConfig], seeds: Sequence[i
     return [Unit(row.id, seed) for row in spec.rows if row.id in configs for seed in seeds]
 
 
+def _worker_unit(args: TableArgs, configs: Mapping[str, DictConfig]) -> Unit | None:
+    """The unit a ``--jobs`` worker evaluates (``--unit ROW:SEED``), or ``None`` in the parent."""
+    if not args.unit:
+        return None
+    try:
+        unit = Unit.parse(args.unit)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    if unit.row not in configs:
+        raise ConfigError(f"--unit: unknown row {unit.row}")
+    return unit
+
+
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     args = parse_table_args(spec, argv)
-    try:
+    try:  # everything is checked before any folder, tracker or model is made
         _check_parallel(args, argv)
         configs = resolve_row_configs(spec, args)
-        worker = Unit.parse(args.unit) if args.unit else None
-        if worker is not None and worker.row not in configs:
-            raise ConfigError(f"--unit: unknown row {worker.row}")
-        if spec.check is not None and worker is None:
-            spec.check(list(configs.values()))
-    except (ConfigError, ValueError, FileNotFoundError) as exc:
-        sys.stderr.write(f"{spec.name}: error: {exc}\n")
-        return 2
+        worker = _worker_unit(args, configs)
+        check_outputs(args.out, spec.name)
+        if worker is None:
+            check_datasets(configs, spec.check)
+    except ConfigError as exc:
+        return fail(spec.name, exc)
     threads = args.threads or (1 if args.jobs > 1 else None)
-    if threads is not None:  # torch and the BLAS under numpy/scipy alike, so numbers follow the count
-        torch.set_num_threads(threads)
-        threadpool_limits(limits=threads)
+    if threads is not None:  # configure_threads (make_accelerator) sets torch and BLAS to this
+        os.environ["MOMU_NUM_THREADS"] = str(threads)
     first = next(iter(configs.values()))
     seeds = [worker.seed] if worker is not None else _seeds(spec, args, first)
     out = args.out / spec.name
@@ -393,7 +410,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         except Preempted as exc:
             sys.stderr.write(f"{spec.name}: {exc}\n")
             finish_accelerator(accelerator)
-            return 143
+            return EXIT_PREEMPTED
         finish_accelerator(accelerator)
         return 0
     units = _units(spec, configs, seeds)
@@ -405,13 +422,11 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             script, sys.argv[1:], todo, args.jobs, threads or 1, out / "logs", spec.name
         )
         if failed:
-            sys.stderr.write(
-                f"{spec.name}: error: {len(failed)} unit(s) failed: "
-                + ", ".join(f"{u.row} seed {u.seed}" for u in failed)
-                + f"; see {out / 'logs'}\n"
-            )
             finish_accelerator(accelerator)
-            return 1
+            units_text = ", ".join(f"{u.row} seed {u.seed}" for u in failed)
+            return fail(
+                spec.name, f"{len(failed)} unit(s) failed: {units_text}; see {out / 'logs'}", EXIT_PROBLEMS
+            )
         reuse = True  # every cell was just written by a worker
     rows_out = []
     calibration: dict[str, list[Scores]] = {}
@@ -448,7 +463,7 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     except Preempted as exc:
         sys.stderr.write(f"{spec.name}: {exc}\n")
         finish_accelerator(accelerator)
-        return 143
+        return EXIT_PREEMPTED
     for folder, how in ctx.trained.items():  # stages the calibration trained or reused
         stages.setdefault(folder, how)
     merge_timings(timings, ctx.timings)

@@ -141,6 +141,7 @@ def _worker_argv(argv: Sequence[str]) -> list[str]:
 def _worker_env(threads: int) -> dict[str, str]:
     env = dict(os.environ)
     env["OMP_NUM_THREADS"] = str(threads)
+    env["MOMU_NUM_THREADS"] = str(threads)
     env["MKL_NUM_THREADS"] = str(threads)
     return env
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from momu.io import atomic_path
+from momu.io import atomic_path, remove_stale_temporaries
 
 __all__ = ["FeatureCache", "cache_key", "file_identity", "clip_identity", "CACHE_FORMAT"]
 
@@ -160,6 +160,7 @@ class FeatureCache:
             if a.dtype == object:
                 raise TypeError(f"FeatureCache.put: array {k!r} has dtype object (would need pickle)")
         path = self.path_for(name, key)
+        remove_stale_temporaries(path.parent, ".npz")  # left by writers that were killed
         with atomic_path(path) as tmp:
             np.savez(tmp, **arrays, **{_META: np.asarray(key)})  # type: ignore[arg-type]
         return path

@@ -330,6 +330,10 @@ class SynthDance:
     def __len__(self) -> int:
         return len(self.indices)
 
+    def split_at(self, index: int) -> str:
+        """The split of clip ``index`` without generating it (``Clip.meta["split"]`` of ``self[index]``)."""
+        return split_of(self.indices[index], len(self.cfg.styles))
+
     def __getitem__(self, index: int) -> Clip:
         if not -len(self) <= index < len(self):
             raise IndexError(f"synth_dance index {index} out of range for {len(self)} clips")

@@ -10,9 +10,11 @@ Layout of a written dataset (``write_dataset(out_dir, cfg)``)::
 Each manifest clip entry holds ``id``, ``index``, ``style``, ``split``, the relative ``audio`` /
 ``motion`` (/ ``trajectory``) paths, ``num_frames``, ``num_samples``, ``duration`` (s), ``bpm``,
 ``beats_per_bar``, ``beat_times``, ``downbeat_times``, ``onset_times``, ``break_times`` and
-``motion_beat_times`` (s). Every file is
-written atomically and the manifest last, so an interrupted write never leaves a manifest that
-points at missing or partial files. The same configuration always gives byte-identical files.
+``motion_beat_times`` (s). The dataset is written into a staging folder beside ``out_dir`` and
+renamed into place when complete (:func:`momu.io.staged_dir`), so an interrupted write leaves the
+old folder (or none), never a mix; a concurrent writer of the same folder fails at once, and a
+non-empty folder is replaced only with ``overwrite``. The same configuration always gives
+byte-identical files.
 """
 
 from __future__ import annotations
@@ -27,10 +29,11 @@ from typing import Any
 import numpy as np
 import soundfile as sf
 
+from momu.data.common import load_npy
 from momu.data.synth.dataset import SPLITS, SynthConfig, SynthDance, generate_clip, resolved_fps
 from momu.data.types import Clip
 from momu.features.skeletons import get_skeleton
-from momu.io import atomic_path, atomic_write_bytes, read_json, write_json
+from momu.io import atomic_path, atomic_write_bytes, read_json, staged_dir, write_json
 
 __all__ = ["write_dataset", "load_written", "WrittenSynthDance", "MANIFEST", "FORMAT"]
 
@@ -62,23 +65,35 @@ def write_dataset(
     *,
     subtype: str = "PCM_16",
     progress: Callable[[int], Any] | None = None,
+    overwrite: bool = False,
 ) -> Path:
-    """Generate every clip of ``cfg`` and write it under ``out_dir``; returns ``out_dir``.
+    """Generate every clip of ``cfg`` and write it as folder ``out_dir``; returns ``out_dir``.
 
     Args:
-        out_dir: destination folder (created; existing files of the same names are replaced).
+        out_dir: destination folder (created; must be empty or absent unless ``overwrite``).
         cfg: the configuration (default :class:`SynthConfig`).
         subtype: libsndfile subtype of the wavs (``"PCM_16"`` or ``"FLOAT"``).
         progress: called with 1 after each clip (e.g. a tqdm bar's ``update``).
+        overwrite: replace a non-empty ``out_dir`` (as one rename, once the new copy is complete).
+
+    Raises:
+        NotADirectoryError: ``out_dir`` is a file. FileExistsError: it is a non-empty folder and
+            ``overwrite`` is false. momu.io.FolderBusyError: another process is writing it.
     """
     cfg = cfg if cfg is not None else SynthConfig()
     dataset = SynthDance(cfg)  # validates cfg
     if subtype not in ("PCM_16", "PCM_24", "FLOAT"):
         raise ValueError(f"subtype must be PCM_16, PCM_24 or FLOAT, got {subtype!r}")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"{out}: exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
+    final = Path(out_dir)
+    with staged_dir(final, overwrite=overwrite) as out:
+        _write_clips(out, cfg, dataset, subtype, progress)
+    log.info("wrote %d synth_dance clips to %s", len(dataset), final)
+    return final
+
+
+def _write_clips(
+    out: Path, cfg: SynthConfig, dataset: SynthDance, subtype: str, progress: Callable[[int], Any] | None
+) -> None:
     entries: list[dict[str, Any]] = []
     for index in dataset.indices:
         clip = generate_clip(cfg, index)
@@ -118,8 +133,6 @@ def write_dataset(
         "clips": entries,
     }
     write_json(out / MANIFEST, manifest)
-    log.info("wrote %d synth_dance clips to %s", len(entries), out)
-    return out
 
 
 class WrittenSynthDance:
@@ -164,10 +177,7 @@ class WrittenSynthDance:
             raise IndexError(f"synth_dance index {index} out of range for {len(self)} clips")
         entry = self.entries[index]
         motion_path = self._file(entry, "motion")
-        try:
-            motion = np.load(motion_path, allow_pickle=False)
-        except ValueError as exc:
-            raise ValueError(f"{motion_path}: unreadable motion array: {exc}") from None
+        motion = load_npy(motion_path)
         sk = get_skeleton(self.skeleton)
         if motion.shape != (entry["num_frames"], sk.num_joints, self.manifest["dims"]):
             raise ValueError(
@@ -186,7 +196,7 @@ class WrittenSynthDance:
             )
         trajectory = None
         if "trajectory" in entry:
-            trajectory = np.load(self._file(entry, "trajectory"), allow_pickle=False)
+            trajectory = load_npy(self._file(entry, "trajectory"))
         meta = {k: entry[k] for k in _META_KEYS}
         meta.update(index=entry["index"], split=entry["split"], source="synth_dance", root=str(self.root))
         return Clip(

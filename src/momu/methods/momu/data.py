@@ -98,6 +98,15 @@ def clip_split(clip: Clip) -> str:
     return str(clip.meta.get("split", "train"))
 
 
+def count_split(dataset: Sequence[Clip] | Any, split: str) -> int:
+    """How many clips of ``split`` carry motion and audio; without loading them when the dataset can
+    tell a clip's split from its index (``split_at``; ``synth_dance``, whose clips always have both)."""
+    split_at = getattr(dataset, "split_at", None)
+    if callable(split_at):
+        return sum(split_at(i) == split for i in range(len(dataset)))
+    return len(select_split(dataset, split))
+
+
 def select_split(dataset: Sequence[Clip] | Any, split: str) -> list[int]:
     """Indices of the clips of ``split`` that carry both motion and audio."""
     out = []

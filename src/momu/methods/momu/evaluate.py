@@ -33,9 +33,7 @@ repeat the floor).
 
 from __future__ import annotations
 
-import json
 import logging
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +43,7 @@ from momu.config import build_component, to_container
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.scores import ROW, Scores
-from momu.methods.momu.data import eval_crops, select_split
+from momu.methods.momu.data import count_split, eval_crops
 from momu.methods.momu.generation import OTHER, generate_joint, generate_motion, generate_music
 from momu.methods.momu.method import MoMu
 from momu.methods.momu.model import MoMuModel
@@ -101,19 +99,13 @@ def fit_momu(
     return method, model, dataset, data_key, folder
 
 
-def check_rows(configs: Sequence[DictConfig]) -> None:
-    """The table's ``check``: every distinct dataset serves its rows (skeleton, split sizes)."""
-    seen: set[str] = set()
-    for cfg in configs:
-        key = json.dumps(to_container(cfg.dataset), sort_keys=True, default=str)
-        if key in seen:
-            continue
-        seen.add(key)
-        method = build_component(cfg.method, "methods")
-        if not isinstance(method, MoMu):
-            raise ValueError(f"method: expected 'momu', got {type(method).__name__}")
-        dataset = build_component(cfg.dataset, "datasets")
-        check_evaluation_splits(method.for_dataset(dataset).cfg.evaluation, dataset)
+def check_rows(cfg: DictConfig) -> None:
+    """The table's ``check`` for one row: its dataset serves it (skeleton, split sizes)."""
+    method = build_component(cfg.method, "methods")
+    if not isinstance(method, MoMu):
+        raise ValueError(f"method: expected 'momu', got {type(method).__name__}")
+    dataset = build_component(cfg.dataset, "datasets")
+    check_evaluation_splits(method.cfg.evaluation, dataset)
 
 
 def check_evaluation_splits(ev: Any, dataset: Any) -> None:
@@ -122,13 +114,13 @@ def check_evaluation_splits(ev: Any, dataset: Any) -> None:
     Every comparison pairs clip i with clip π(i) ≠ i, so the evaluation split needs 2 clips; the
     real-vs-real floor of FAD/FID takes as many ``reference_split`` clips as evaluation clips.
     """
-    n_eval = min(int(ev.num_clips), len(select_split(dataset, ev.split)))
+    n_eval = min(int(ev.num_clips), count_split(dataset, ev.split))
     if n_eval < 2:
         raise ValueError(
             f"method.evaluation.split: the '{ev.split}' split has {n_eval} clip(s) with motion and audio; "
             "the table needs at least 2 (each clip is compared with another clip's ground truth)"
         )
-    n_ref = len(select_split(dataset, ev.reference_split))
+    n_ref = count_split(dataset, ev.reference_split)
     if n_ref < n_eval:
         raise ValueError(
             f"method.evaluation.reference_split: the '{ev.reference_split}' split has {n_ref} clip(s) for "

@@ -50,6 +50,7 @@ from momu.methods.momu.tables_setup import (
     SUBSET_LABELS,
     TABLES_CONFIG,
     beat_columns,
+    check_subsets,
     onset_column,
     quality_columns,
     table_base_config,
@@ -85,6 +86,7 @@ def _spec(
         baselines=[PaperRow(n, cells) for n, cells in paper.items() if n != "Ours"],
         data_key="real_data",
         notes=notes,
+        check=partial(check_subsets, subsets=tuple(subsets)),  # before any folder or tracker (issue 13)
     )
 
 

@@ -1,0 +1,65 @@
+"""The schema of a recipe config: every top-level key a recipe YAML may hold, in one place.
+
+``recipes/configs/*.yaml`` and everything ``momu config show`` prints are checked against
+:class:`RecipeConfig`: a key that is neither one of its fields nor a component node (a key naming a
+registry kind — ``dataset``, ``method``, ``backbone`` …, validated by its part's dataclass) is an
+error naming the key and the valid ones. Adding a top-level key is one field here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+from momu.engine.trainer import TrainConfig
+
+__all__ = ["RecipeConfig", "RealDataConfig", "SubsetConfig"]
+
+
+@dataclass
+class RealDataConfig:
+    """``real_data``: where Tables 2–6 read their real datasets (``--data DIR`` sets ``root``)."""
+
+    root: Optional[str] = None  # noqa: UP045 - OmegaConf structured configs need typing.Optional
+
+
+@dataclass
+class SubsetConfig:
+    """``subsets.<id>`` of ``recipes/configs/momu_tables.yaml``: one column group of Tables 2–6.
+
+    Attributes:
+        synth_dataset: the synthetic stand-in (``--data synth``).
+        real_dataset: the real loader, its ``root`` relative to ``real_data.root``.
+        real_joints: ``[joints, dims]`` of the real data's keypoints.
+        seconds: clip, window and evaluation length of this subset (Tables 3–4).
+    """
+
+    synth_dataset: Any = None
+    real_dataset: Any = None
+    real_joints: Optional[list[int]] = None  # noqa: UP045
+    seconds: Optional[float] = None  # noqa: UP045
+
+
+@dataclass
+class RecipeConfig:
+    """Top-level keys of a recipe config (``recipes/configs/momu.yaml``, ``momu_tables.yaml``).
+
+    Attributes:
+        seed: the base seed of every row (``--seeds`` overrides it).
+        mixed_precision: ``no``, ``fp16`` or ``bf16``.
+        dataset: the dataset node (``{name: synth_dance, ...}``).
+        method: the method node (``{name: momu, ...}``), validated by the method's dataclass.
+        real_data, subsets: Tables 2–6 (:class:`RealDataConfig`, :class:`SubsetConfig`).
+        learnable_encoder, learnable_train, learnable_frames_per_latent: Tables 3–4's learnable
+            motion encoder, its training stage and the motion frames it sees per latent frame.
+    """
+
+    seed: int = 0
+    mixed_precision: str = "no"
+    dataset: Any = None
+    method: Any = None
+    real_data: RealDataConfig = field(default_factory=RealDataConfig)
+    subsets: dict[str, SubsetConfig] = field(default_factory=dict)
+    learnable_encoder: Any = None
+    learnable_train: Optional[TrainConfig] = None  # noqa: UP045
+    learnable_frames_per_latent: int = 1
