@@ -168,3 +168,22 @@ def test_learnable_motion_parts_io_round_trip(tmp_path: Path) -> None:
     assert isinstance(loaded, LearnableMotionEncoder) and loaded.cfg == cfg
     x = torch.randn(2, 6, 5, 2)
     torch.testing.assert_close(loaded(x), enc(x))
+
+
+def test_learnable_motion_velocity_input_sees_displacements_and_ignores_padding() -> None:
+    from momu.encoders.learnable_motion import LearnableMotionConfig, LearnableMotionEncoder
+
+    torch.manual_seed(0)
+    cfg = LearnableMotionConfig(num_joints=5, dim_in=2, dim_feat=8, dim_rep=4, depth=1, num_heads=2,
+                                out_channels=3, velocity=True)  # fmt: skip
+    enc = LearnableMotionEncoder(cfg).eval()
+    assert enc.backbone.cfg.dim_in == 4  # positions and their first differences
+    x = torch.randn(1, 6, 5, 2)
+    moved = x + torch.tensor([3.0, -1.0])  # a translated copy: same displacements, other positions
+    with torch.no_grad():
+        ref = enc(x)
+        assert not torch.allclose(enc(moved), ref)  # positions are still seen
+        padded = torch.cat([x, torch.full((1, 4, 5, 2), 9.0)], dim=1)
+        mask = torch.zeros(1, 10, dtype=torch.bool)
+        mask[:, :6] = True
+        torch.testing.assert_close(enc(padded, mask)[:, :6], ref, atol=1e-5, rtol=1e-5)

@@ -45,6 +45,11 @@ class LearnableMotionConfig:
             "input channels", so the encoder is a drop-in for the motion VAE latent).
         downsample: temporal average-pooling factor from motion frames to condition frames
             (1 = one condition frame per motion frame).
+        velocity: also feed each joint's frame-to-frame displacement (the first difference, 0 at the
+            first frame) beside its position, doubling the DSTformer's input width (not in the
+            paper: MoMu's motion→music signal is where movements start and stop — its kinematic
+            amplitude, Eq. 1–2, is built from first differences — and a shallow encoder trained
+            from scratch finds it more easily given the differences than from positions alone).
     """
 
     num_joints: int = 14
@@ -57,6 +62,7 @@ class LearnableMotionConfig:
     dropout: float = 0.0
     out_channels: int = 20
     downsample: int = 1
+    velocity: bool = False
 
     def __post_init__(self) -> None:
         if self.out_channels < 1:
@@ -68,7 +74,7 @@ class LearnableMotionConfig:
         """The :class:`DSTformerConfig` these fields describe."""
         return DSTformerConfig(
             num_joints=self.num_joints,
-            dim_in=self.dim_in,
+            dim_in=self.dim_in * (2 if self.velocity else 1),
             dim_feat=self.dim_feat,
             dim_rep=self.dim_rep,
             depth=self.depth,
@@ -110,6 +116,11 @@ class LearnableMotionEncoder(nn.Module):
 
         Padded frames (``mask`` False) never influence valid condition frames.
         """
+        if self.cfg.velocity:  # (B, T, J, 2D): positions and their first differences
+            step = torch.diff(motion, dim=1, prepend=motion[:, :1])
+            if mask is not None:  # a padded frame's difference never reaches a valid frame's input
+                step = step * mask[:, :, None, None].to(step.dtype)
+            motion = torch.cat([motion, step], dim=-1)
         rep = self.backbone(motion, mask)  # (B, T, J, dim_rep)
         b, t, j, c = rep.shape
         h = self.proj(rep.reshape(b, t, j * c))  # (B, T, out_channels)
