@@ -88,6 +88,7 @@ class RunContext:
     resume: bool = False
     trained: dict[str, str] = field(default_factory=dict)  # stage folder -> "trained" | "reused"
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
+    parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
 
     @contextmanager
     def timed(self, category: str) -> Iterator[None]:
@@ -103,7 +104,8 @@ class RunContext:
 
     @property
     def parts_dir(self) -> Path:
-        return self.out_dir / "parts"
+        """Where trained stages are cached: ``parts_root``, else ``<out_dir>/parts``."""
+        return self.parts_root if self.parts_root is not None else self.out_dir / "parts"
 
     @contextmanager
     def lock(self, name: str) -> Iterator[None]:

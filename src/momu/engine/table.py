@@ -167,6 +167,7 @@ class TableSpec:
     notes: Sequence[str] = ()
     preset_configs: Mapping[str, str | Path | Mapping[str, Any]] = field(default_factory=dict)
     check: Callable[[DictConfig], None] | None = None
+    shared_parts: str | None = None
     default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
     bootstrap_seed: int = 0
 
@@ -403,7 +404,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         mixed_precision=str(first.get("mixed_precision", "no")),
     )
     accelerator = make_accelerator(run_cfg, out, spec.name, {"preset": args.preset, "rows": args.rows})
-    ctx = RunContext(accelerator=accelerator, out_dir=out, resume=args.resume)
+    shared = args.out / spec.shared_parts / "parts" if spec.shared_parts else None
+    ctx = RunContext(accelerator=accelerator, out_dir=out, resume=args.resume, parts_root=shared)
     if worker is not None:  # one unit of a --jobs run: evaluate it into its cell and stop
         try:
             evaluate_unit(spec.evaluate, ctx, configs[worker.row], worker, reuse=args.resume)

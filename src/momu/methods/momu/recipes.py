@@ -30,6 +30,9 @@ from momu.methods.momu.evaluate import calibrate_momu, check_rows, evaluate_momu
 
 __all__ = ["BASE_CONFIG", "PRESETS", "COLUMNS", "table7_spec", "table10_spec"]
 
+SHARED_DIR = "momu_shared"
+"""Folder under ``--out`` whose ``parts/`` caches the stages every MoMu table trains (Tables 2–7, 10)."""
+
 BASE_CONFIG = Path(__file__).resolve().parents[4] / "recipes" / "configs" / "momu.yaml"
 """The ``cpu`` preset (``smoke`` overrides it); :func:`paper_config` is the ``paper`` preset."""
 
@@ -181,6 +184,7 @@ def table7_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         evaluate=evaluate_momu,
         calibrate=calibrate_momu,
         check=check_rows,
+        shared_parts=SHARED_DIR,
         notes=_TABLE7_NOTES,
     )
 
@@ -217,6 +221,7 @@ def table10_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         evaluate=evaluate_momu,
         calibrate=calibrate_momu,
         check=check_rows,
+        shared_parts=SHARED_DIR,
         notes=(
             "Every row shares the same trained models (one training per run); rows differ only in γ.",
             *_TABLE7_NOTES[:1],

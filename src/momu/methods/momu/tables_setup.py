@@ -15,7 +15,7 @@ from omegaconf import DictConfig, OmegaConf
 from momu.config import ConfigError, apply_overrides, build_component, to_container
 from momu.engine.context import RunContext
 from momu.engine.table import Column
-from momu.methods.momu.recipes import BASE_CONFIG
+from momu.methods.momu.recipes import BASE_CONFIG, SHARED_DIR
 from momu.methods.momu.recipes import PRESETS as MOMU_PRESETS
 
 log = logging.getLogger(__name__)
@@ -23,8 +23,7 @@ log = logging.getLogger(__name__)
 TABLES_CONFIG = BASE_CONFIG.parent / "momu_tables.yaml"
 """Subsets, stand-ins and Table 3–4 settings, merged over ``recipes/configs/momu.yaml``."""
 
-SHARED_DIR = "momu_shared"
-"""Folder under ``--out`` holding the stages every Table 2–6 run shares."""
+
 
 BEAT_METRICS: tuple[tuple[str, str, bool], ...] = (
     ("bcs", "BCS", True),
@@ -287,4 +286,5 @@ def shared_context(ctx: RunContext) -> RunContext:
         out_dir=ctx.out_dir.parent / SHARED_DIR,
         resume=ctx.resume,
         trained=ctx.trained,
+        timings=ctx.timings,
     )
