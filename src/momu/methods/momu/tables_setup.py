@@ -24,7 +24,6 @@ TABLES_CONFIG = BASE_CONFIG.parent / "momu_tables.yaml"
 """Subsets, stand-ins and Table 3–4 settings, merged over ``recipes/configs/momu.yaml``."""
 
 
-
 BEAT_METRICS: tuple[tuple[str, str, bool], ...] = (
     ("bcs", "BCS", True),
     ("csd", "CSD", False),
