@@ -84,7 +84,8 @@ def test_bvh_header_has_frame_time_root_translation_and_mean_bone_lengths(tmp_pa
     # rest offsets are the skeleton's (rigid motion: mean lengths equal rest lengths)
     rig = build_rig(get_skeleton("smpl24"))
     knee = rig.names.index("l_knee")
-    assert np.linalg.norm(rig.offsets[knee]) == pytest.approx(get_skeleton("smpl24").bone_lengths[3], rel=1e-9)
+    knee_length = get_skeleton("smpl24").bone_lengths[3]
+    assert np.linalg.norm(rig.offsets[knee]) == pytest.approx(knee_length, rel=1e-9)
     # centimetres on request
     text_cm = write_bvh(tmp_path / "cm.bvh", motion, 25.0, "smpl24", scale=100.0)
     got = read_bvh(text_cm).positions
@@ -115,7 +116,8 @@ def test_ik_then_fk_is_exact_on_rigid_motion(seed: int, skeleton: str) -> None:
 
     euler = np.radians(np.asarray(data["rotations"]))
     orders = np.broadcast_to(np.asarray(data["rot_order"]), euler.shape)
-    pos, _ = fk(quat.from_euler(euler, orders), np.asarray(data["positions"])[:, 0], rig.offsets, np.asarray(data["parents"]))
+    root = np.asarray(data["positions"])[:, 0]
+    pos, _ = fk(quat.from_euler(euler, orders), root, rig.offsets, np.asarray(data["parents"]))
     idx = list(rig.bvh_index)
     assert np.abs(pos[:, idx] - motion).max() < 1e-6
 

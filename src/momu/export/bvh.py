@@ -62,7 +62,8 @@ def _check_motion(motion: np.ndarray, skel: Skeleton, trajectory: np.ndarray | N
             "(convert with momu.features.convert, or use a 3D model)"
         )
     if x.ndim != 3 or x.shape[1:] != (skel.num_joints, 3) or x.shape[0] < 1:
-        raise ValueError(f"motion must be (T, {skel.num_joints}, 3) for skeleton {skel.name!r}, got {x.shape}")
+        want = f"(T, {skel.num_joints}, 3)"
+        raise ValueError(f"motion must be {want} for skeleton {skel.name!r}, got {x.shape}")
     if not np.all(np.isfinite(x)):
         raise ValueError("motion contains NaN or infinite values")
     if trajectory is not None:

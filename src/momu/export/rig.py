@@ -237,4 +237,3 @@ def local_rotations(rig: BvhRig, global_rot: np.ndarray) -> np.ndarray:
         if p >= 0:
             local[:, b] = np.swapaxes(global_rot[:, p], -1, -2) @ global_rot[:, b]
     return local
-
