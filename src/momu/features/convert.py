@@ -155,8 +155,10 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
 
 
 def can_convert(source: str, target: str) -> bool:
-    """Whether :func:`convert_motion` can map ``source`` motion to ``target``."""
+    """Whether :func:`convert_motion` can map ``source`` motion to ``target`` (never 2D to 3D)."""
     try:
+        if get_skeleton(source).dims == 2 and get_skeleton(target).dims == 3:
+            return False
         conversion_matrix(source, target)
     except (KeyError, ValueError):
         return False
