@@ -93,7 +93,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace, direction: str) -> ModelRecord:
-    return model_record(args.model if args.model is not None else default_model_dir(direction))
+    from momu.training import find_model
+
+    return model_record(find_model(args.model) if args.model is not None else default_model_dir(direction))
 
 
 def _need_3d(outputs: dict[str, Path], record: ModelRecord) -> None:
