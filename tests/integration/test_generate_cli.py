@@ -15,58 +15,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import soundfile as sf
+from tests.helpers.tiny_models import tiny_3d_model
 
 from momu.cli import main
 from momu.cli.generate_io import GenerateInputError, default_model_dir
 
 bvhio = pytest.importorskip("bvhio")
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
-
-
-def _tiny_model(folder: Path) -> Path:
-    """A tiny dwm21 (3D) MoMu model trained for a few steps on synth_dance (seconds on a CPU)."""
-    import torch
-
-    from momu.config import build_component, load_config, to_container
-    from momu.engine import RunConfig, make_accelerator
-    from momu.engine.context import RunContext
-
-    torch.set_num_threads(1)
-    vae = {"latent_channels": 4, "base_channels": 8, "channel_mult": [1, 2], "num_res_blocks": 1}
-    vae |= {"attention_layers": 0, "attention_heads": 2, "norm_groups": 4}
-    dit = {"name": "dit", "hidden": 16, "heads": 2, "depth": 1, "cond_embed_dim": 16, "max_length": 128}
-    steps = {"steps": 2, "batch_size": 4}
-    cfg = load_config(
-        {
-            "seed": 0,
-            "dataset": {"name": "synth_dance", "skeleton": "dwm21", "num_clips": 6, "min_seconds": 2.0},
-            "method": {
-                "name": "momu",
-                "encoder": {
-                    "name": "bicor_vae",
-                    "num_joints": 21,
-                    "joint_dims": 3,
-                    "motion": vae,
-                    "music": vae,
-                },
-                "discriminator_encoder": None,
-                "contrastive_loss": None,
-                "music_backbone": dit,
-                "motion_backbone": dit,
-                "sampler": {"name": "cfg", "num_inference_steps": 3},
-                "vocoder": {"name": "griffin_lim", "n_iter": 2},
-                "window_seconds": 1.0,
-                "window_hop_seconds": 0.5,
-                "train_music_vae": steps,
-                "train_motion_vae": steps,
-                "train_diffusion": steps,
-            },
-        }
-    )
-    ctx = RunContext(accelerator=make_accelerator(RunConfig(tracker="none"), folder, "t", {}), out_dir=folder)
-    dataset = build_component(cfg.dataset, "datasets")
-    model = build_component(cfg.method, "methods").fit(ctx, dataset, to_container(cfg.dataset), 0)
-    return model.save(folder / "model")
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +31,7 @@ def model_args(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
         default_model_dir("dance")
         return []
     except GenerateInputError:
-        return ["--model", str(_tiny_model(tmp_path_factory.mktemp("tiny")))]
+        return ["--model", str(tiny_3d_model(tmp_path_factory.mktemp("tiny")))]
 
 
 def _song(seconds: float, sr: int, channels: int) -> np.ndarray:

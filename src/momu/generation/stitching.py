@@ -178,22 +178,26 @@ def stitched_sample(
     return outs
 
 
-def velocity_jumps(motion: np.ndarray) -> np.ndarray:
-    """``(T − 2,)`` joint-velocity jump per frame: the mean over joints of ``|v_t − v_{t−1}|``.
+def velocity_jumps(motion: np.ndarray, fps: float = 1.0) -> np.ndarray:
+    """``(T − 2,)`` joint-velocity jump per frame: the mean over joints of ``|v_t − v_{t−1}| · fps``.
 
-    ``v_t = x_{t+1} − x_t`` (per frame, in the motion's units). The value at index ``i`` belongs to
-    frame ``i + 1`` (the frame between the two velocities).
+    ``v_t = (x_{t+1} − x_t) · fps`` (units per second), so the jump is an acceleration (units/s²) and
+    motions at different frame rates compare. The value at index ``i`` belongs to frame ``i + 1``.
     """
     x = np.asarray(motion, dtype=np.float64)
     if x.ndim != 3 or x.shape[0] < 3:
         raise ValueError(f"motion must be (T >= 3, J, D), got {x.shape}")
-    v = np.diff(x, axis=0)
-    return np.linalg.norm(np.diff(v, axis=0), axis=-1).mean(axis=-1)
+    if not fps > 0:
+        raise ValueError(f"fps must be > 0, got {fps}")
+    v = np.diff(x, axis=0) * fps
+    return np.linalg.norm(np.diff(v, axis=0), axis=-1).mean(axis=-1) * fps
 
 
-def seam_jumps(motion: np.ndarray, boundaries: Sequence[int], radius: int = 1) -> np.ndarray:
+def seam_jumps(
+    motion: np.ndarray, boundaries: Sequence[int], fps: float = 1.0, radius: int = 1
+) -> np.ndarray:
     """The largest :func:`velocity_jumps` within ``radius`` frames of each boundary frame."""
-    jumps = velocity_jumps(motion)
+    jumps = velocity_jumps(motion, fps)
     out = []
     for b in boundaries:
         lo, hi = max(0, b - 1 - radius), min(len(jumps), b - 1 + radius + 1)
