@@ -95,24 +95,14 @@ def _check_dance_outputs(out: Path, seconds: float) -> None:
     assert np.abs(world[skel.joint_names[skel.root]] - joints[frame, skel.root]).max() < 1e-3
 
 
+def _dance(song: Path, out: Path, model_args: list[str]) -> int:
+    return main(["generate", "dance", "--music", str(song), "--out", str(out), "--quiet", *model_args])
+
+
 def test_dance_for_a_20_s_wav_song(tmp_path: Path, model_args: list[str]) -> None:
     song = tmp_path / "song.wav"
     sf.write(str(song), _song(20.0, 22050, 1), 22050)
-    assert (
-        main(
-            [
-                "generate",
-                "dance",
-                "--music",
-                str(song),
-                "--out",
-                str(tmp_path / "out"),
-                "--quiet",
-                *model_args,
-            ]
-        )
-        == 0
-    )
+    assert _dance(song, tmp_path / "out", model_args) == 0
     _check_dance_outputs(tmp_path / "out", 20.0)
 
 
@@ -120,21 +110,7 @@ def test_dance_for_a_10_s_stereo_44k_mp3(tmp_path: Path, model_args: list[str]) 
     song = tmp_path / "song.mp3"
     sf.write(str(song), _song(10.0, 44100, 2), 44100, format="MP3")  # libsndfile >= 1.1 writes MP3
     assert sf.info(str(song)).channels == 2
-    assert (
-        main(
-            [
-                "generate",
-                "dance",
-                "--music",
-                str(song),
-                "--out",
-                str(tmp_path / "out"),
-                "--quiet",
-                *model_args,
-            ]
-        )
-        == 0
-    )
+    assert _dance(song, tmp_path / "out", model_args) == 0
     _check_dance_outputs(tmp_path / "out", 10.0)
     # music for the dance momu just wrote, from its BVH
     out = tmp_path / "music"

@@ -46,31 +46,23 @@ _DWM21 = {
     **_sided(*_LIMBS, "hand", "heel", "toe"),
 }
 
+_SMPL_BODY = {
+    "pelvis": "pelvis",
+    "spine1": "spine1",
+    "spine2": "spine2",
+    "spine3": "spine3",
+    "neck": "neck",
+    "head": "head",
+    **_sided("collar", *_LIMBS),
+    "l_foot": "l_toe",
+    "r_foot": "r_toe",
+}
+
 JOINT_LANDMARKS: Mapping[str, Mapping[str, str]] = {
     "openpose14": {"nose": "nose", "neck": "neck", **_sided(*_LIMBS)},
     "coco17": {"nose": "nose", **_sided("eye", "ear", *_LIMBS)},
-    "smpl24": {
-        "pelvis": "pelvis",
-        "spine1": "spine1",
-        "spine2": "spine2",
-        "spine3": "spine3",
-        "neck": "neck",
-        "head": "head",
-        **_sided("collar", *_LIMBS, "hand"),
-        "l_foot": "l_toe",
-        "r_foot": "r_toe",
-    },
-    "humanml22": {
-        "pelvis": "pelvis",
-        "spine1": "spine1",
-        "spine2": "spine2",
-        "spine3": "spine3",
-        "neck": "neck",
-        "head": "head",
-        **_sided("collar", *_LIMBS),
-        "l_foot": "l_toe",
-        "r_foot": "r_toe",
-    },
+    "smpl24": {**_SMPL_BODY, **_sided("hand")},
+    "humanml22": _SMPL_BODY,  # SMPL's first 22 joints: no hand tips
     # Dance with Melody: the "head" points sit at the head (0.49 m above the pelvis); its "hand"
     # points are the hand ends, "wrist" the wrists (momu.features.skeletons).
     "dwm21": _DWM21,

@@ -13,7 +13,7 @@ to it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -59,6 +59,31 @@ def plan_for_seconds(model: MoMuModel, seconds: float, direction: str = "motion"
     return plan_windows(model.rates.latent_frames(seconds), window, overlap)
 
 
+def _generate(
+    model: MoMuModel,
+    direction: str,
+    conds: Sequence[Any],
+    seeds: Sequence[int],
+    guidance_scale: float | None,
+    window_seconds: float | None,
+    overlap_seconds: float | None,
+    progress: Progress | None,
+) -> list[Any]:
+    """Stitched latents of ``direction`` (``"motion"`` or ``"music"``) for per-item condition latents."""
+    window, overlap = window_frames(model, direction, window_seconds, overlap_seconds)
+    return stitched_sample(
+        model.sampler_for(direction),
+        model.motion_backbone if direction == "motion" else model.music_backbone,
+        conds,
+        seeds,
+        model.latent_channels,
+        window=window,
+        overlap=overlap,
+        guidance_scale=guidance_scale,
+        progress=progress,
+    )
+
+
 def music_to_motion_long(
     model: MoMuModel,
     audios: Sequence[np.ndarray],
@@ -71,18 +96,9 @@ def music_to_motion_long(
     progress: Progress | None = None,
 ) -> list[np.ndarray]:
     """Music → motion for songs of any length: one ``(T, J, D)`` motion at ``rates.motion_fps`` per song."""
-    window, overlap = window_frames(model, "motion", window_seconds, overlap_seconds)
     conds = [model.encode_music(a, sample_rate) for a in audios]
-    latents = stitched_sample(
-        model.sampler_for("motion"),
-        model.motion_backbone,
-        conds,
-        seeds,
-        model.latent_channels,
-        window=window,
-        overlap=overlap,
-        guidance_scale=guidance_scale,
-        progress=progress,
+    latents = _generate(
+        model, "motion", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress
     )
     return [model.decode_motion(z) for z in latents]
 
@@ -99,17 +115,8 @@ def motion_to_music_long(
     progress: Progress | None = None,
 ) -> list[np.ndarray]:
     """Motion → music for dances of any length: one waveform at ``rates.sample_rate`` per motion."""
-    window, overlap = window_frames(model, "music", window_seconds, overlap_seconds)
     conds = [model.encode_motion(m, fps) for m in motions]
-    latents = stitched_sample(
-        model.sampler_for("music"),
-        model.music_backbone,
-        conds,
-        seeds,
-        model.latent_channels,
-        window=window,
-        overlap=overlap,
-        guidance_scale=guidance_scale,
-        progress=progress,
+    latents = _generate(
+        model, "music", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress
     )
     return [model.decode_music(z) for z in latents]

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
@@ -108,7 +109,7 @@ def _batch(items: Sequence[Tensor]) -> tuple[Tensor, Tensor | None]:
 @torch.no_grad()
 def stitched_sample(
     sampler: object,
-    backbone: torch.nn.Module,
+    backbone: Any,
     conds: Sequence[Tensor],
     seeds: Sequence[int],
     channels: int,
