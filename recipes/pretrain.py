@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import shutil
 import sys
 import time
@@ -62,7 +63,8 @@ def _songs(seconds: float) -> list:
     from momu.config import build_component
     from momu.generation.follows_music import Song
 
-    root = ROOT.parent / "shared" / "data" / "dance_with_melody"
+    shared = Path(os.environ.get("MOMU_SHARED_DATA") or ROOT.parent / "shared" / "data")
+    root = shared / "dance_with_melody"
     if not root.is_dir():
         return []
     ds = build_component({"name": "dance_with_melody", "root": str(root), "sample_rate": 16000}, "datasets")
