@@ -175,7 +175,7 @@ def _dance(args: argparse.Namespace) -> int:
 
 def _music(args: argparse.Namespace) -> int:
     from momu.data.motion_files import read_motion_file
-    from momu.features.convert import can_convert, convert_motion
+    from momu.features.convert import can_convert, convert_motion, stand_on_floor
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds
 
     outputs = resolve_outputs(args.out, _formats(args.format), MUSIC_FORMATS, "music")
@@ -198,10 +198,11 @@ def _music(args: argparse.Namespace) -> int:
         )
     from momu.features.skeletons import get_skeleton
 
-    projected = get_skeleton(record.skeleton).dims == 2 and get_skeleton(given.skeleton).dims == 3
-    model_input = convert_motion(
-        motion, given.skeleton, record.skeleton, trajectory=trajectory if projected else None
-    )
+    # the whole path in space (root-centred files carry it apart), on the floor and centred like the
+    # training data; 3D -> 2D conversion projects it with the synthetic data's camera
+    model_input = convert_motion(motion, given.skeleton, record.skeleton, trajectory=trajectory)
+    if get_skeleton(record.skeleton).dims == 3:
+        model_input = stand_on_floor(model_input, get_skeleton(record.skeleton).root).astype(np.float32)
     if motion.shape[0] / given.fps < 2.0:
         log.warning(
             "%s: only %.2f s of motion; the music will be very short",

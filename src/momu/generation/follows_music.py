@@ -6,7 +6,8 @@ against another song ``π(i) = i + 1 mod n`` cut to the same length, with
 * **BAS** (Bailando's Beat Align Score, METRICS.md §1.6): music beats of the song (librosa, Bailando
   recipe) against the dance's kinematic beats (velocity minima), σ = 3 frames at the motion's rate;
 * **kinematic-beat F1** (MoMu App. B.5, LORIS scores): the song's onset bins against the dance's
-  kinematic-beat bins (MoMu Eq. 2), ``bin_seconds`` wide.
+  kinematic-beat bins (MoMu Eq. 2), ``bin_seconds`` wide; per song, the harmonic mean of that pair's
+  beat coverage and hit rate (the table F1 is the harmonic mean of their means over pairs).
 
 A dance that follows its music scores higher against its own song. The difference ``own − other`` is
 averaged over seeds per song and summarised over songs by its mean and a 95 % Student-t interval
@@ -24,7 +25,8 @@ from scipy import stats
 
 from momu.metrics.beat_align import bas
 from momu.metrics.beats import music_beats, resample_beat_frames
-from momu.metrics.kinematic_beats import kinematic_beat_scores
+from momu.metrics.kinematic_beats import kinematic_beat_bins
+from momu.metrics.loris_scores import onset_beat_bins, pair_beat_scores
 
 __all__ = ["Song", "pair_scores", "follow_music_study", "interval"]
 
@@ -49,7 +51,11 @@ def _bas(motion: np.ndarray, fps: float, audio: np.ndarray, sr: int) -> float:
 
 
 def _f1(motion: np.ndarray, fps: float, audio: np.ndarray, sr: int, bin_seconds: float) -> float:
-    return float(kinematic_beat_scores([motion], fps, [audio], sr, bin_seconds=bin_seconds)["f1"])
+    """One pair's F1: the harmonic mean of its beat coverage and hit rate (MoMu App. B.5 per pair)."""
+    motion_bins = kinematic_beat_bins(motion, fps, bin_seconds)
+    music_bins = onset_beat_bins(audio, sr, bin_seconds=bin_seconds)
+    cover, hit = pair_beat_scores(music_bins, motion_bins, truncate="shortest")
+    return 2 * cover * hit / (cover + hit) if cover + hit > 0 else 0.0
 
 
 def pair_scores(
