@@ -109,3 +109,15 @@ def reproduce(session: nox.Session) -> None:
         command = "python " + " ".join(args)
         dst = str(Path("reproductions") / table)
         session.run("python", "-m", "momu.engine.reproduce", str(work / table), dst, "--command", command)
+
+
+@nox.session(python=PYTHON, default=False)
+def pretrain(session: nox.Session) -> None:
+    """Train the model shipped in src/momu/pretrained/ and check it on held-out real songs.
+
+    Non-default: `momu train momu` on synth_dance (dwm21, cpu preset, seed 0), then the held-out
+    Dance with Melody evaluation where ../shared/data is present (recipes/pretrain.py).
+    """
+    _install(session, "render")
+    env = {"WANDB_MODE": "disabled", "HF_HUB_OFFLINE": "1", "PYTHONHASHSEED": "0"}
+    session.run("python", "recipes/pretrain.py", *session.posargs, env=env)

@@ -25,7 +25,10 @@ torch.set_num_threads(int(os.environ.get("MOMU_TEST_THREADS", "1")))
 # ... and the runs the tests start (make_accelerator sets the count from MOMU_NUM_THREADS)
 os.environ.setdefault("MOMU_NUM_THREADS", os.environ.get("MOMU_TEST_THREADS", "1"))
 
-SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+# The real-data folder beside the project root; MOMU_SHARED_DATA points elsewhere (e.g. from a worktree).
+SHARED_DATA = Path(
+    os.environ.get("MOMU_SHARED_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data"
+)
 
 
 def _cuda_available() -> bool:

@@ -133,7 +133,8 @@ def _generate(*argv: str, model: bool = True, wav: bool = True) -> Callable[[Pat
             _wav(root / "song.wav")
         (root / "afile").write_text("x")
         (root / "adir").mkdir()
-        return ["generate", "--model", str(root / "model"), *[a.replace("ROOT", str(root)) for a in argv]]
+        args = [a.replace("ROOT", str(root)) for a in argv]
+        return ["generate", *args[:1], "--model", str(root / "model"), *args[1:]]
 
     return setup
 
@@ -179,31 +180,28 @@ CASES = [
     Case("eval-fps-mismatch", _fps_sidecar, "c1.npy"),
     # generate
     Case(
-        "generate-out-is-a-folder",
-        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/adir"),
-        "--out",
+        "generate-out-suffix", _generate("dance", "--music", "ROOT/song.wav", "--out", "ROOT/o.xyz"), "o.xyz"
     ),
-    Case(
-        "generate-input-missing",
-        _generate("--task", "music2motion", "--input", "ROOT/no.wav", "--out", "ROOT/o.npy"),
-        "no.wav",
-    ),
+    Case("generate-input-missing", _generate("dance", "--music", "ROOT/no.wav", "--out", "ROOT/o"), "no.wav"),
     Case(
         "generate-out-parent-is-a-file",
-        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/afile/o.npy"),
+        _generate("dance", "--music", "ROOT/song.wav", "--out", "ROOT/afile/o.npz"),
         "afile",
     ),
     Case(
-        "generate-out-suffix",
-        _generate("--task", "music2motion", "--input", "ROOT/song.wav", "--out", "ROOT/o.wav"),
-        "o.wav",
+        "generate-out-is-a-file",
+        _generate("dance", "--music", "ROOT/song.wav", "--out", "ROOT/afile"),
+        "--out",
     ),
     Case(
-        "generate-model-missing", _generate("--task", "joint", "--out", "ROOT/pair", model=False), "--model"
+        "generate-model-not-saved",
+        _generate("dance", "--music", "ROOT/song.wav", "--out", "ROOT/o"),
+        "--model",
     ),
+    Case("generate-input-not-audio", _generate("dance", "--music", "ROOT/afile", "--out", "ROOT/o"), "afile"),
     Case(
-        "generate-input-not-audio",
-        _generate("--task", "music2motion", "--input", "ROOT/afile", "--out", "ROOT/o.npy"),
+        "generate-motion-unknown-type",
+        _generate("music", "--motion", "ROOT/afile", "--out", "ROOT/o"),
         "afile",
     ),
     # data check / data synth

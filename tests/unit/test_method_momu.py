@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -333,7 +332,7 @@ def test_save_load_round_trip_and_strict_loading(trained, tmp_path: Path) -> Non
         MoMuModel.load(tmp_path)
 
 
-def test_generate_cli_music2motion_and_errors(
+def test_generate_cli_dance_music_and_errors(
     trained, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from momu.cli import main
@@ -342,61 +341,37 @@ def test_generate_cli_music2motion_and_errors(
     folder = model.save(tmp_path / "model")
     wav = tmp_path / "song.wav"
     sf.write(str(wav), dataset[6].audio[:16000], 16000)
-    out = tmp_path / "dance.npy"
-    assert (
-        main(
-            [
-                "generate",
-                "--task",
-                "music2motion",
-                "--model",
-                str(folder),
-                "--input",
-                str(wav),
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
-    motion = np.load(out)
+    out = tmp_path / "dance.npz"
+    argv = ["generate", "dance", "--model", str(folder), "--music", str(wav), "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    with np.load(out, allow_pickle=False) as data:
+        motion = data["joints"]
+        assert float(data["fps"]) == pytest.approx(62.5)
+        assert str(data["skeleton"]) == "openpose14"
     assert motion.shape == (62, 14, 2)
-    assert json.loads(out.with_suffix(".json").read_text())["fps"] == pytest.approx(62.5)
     song = tmp_path / "gen.wav"
-    assert (
-        main(
-            [
-                "generate",
-                "--task",
-                "motion2music",
-                "--model",
-                str(folder),
-                "--input",
-                str(out),
-                "--fps",
-                "62.5",
-                "--out",
-                str(song),
-            ]
-        )
-        == 0
-    )
+    assert main(["generate", "music", "--model", str(folder), "--motion", str(out), "--out", str(song)]) == 0
     assert sf.info(str(song)).samplerate == 16000
+    # a 2D model cannot write BVH: refused before generating, nothing written
+    code = main(
+        ["generate", "dance", "--model", str(folder), "--music", str(wav), "--out", str(tmp_path / "d.bvh")]
+    )
+    assert code == 2 and "BVH needs a 3D model" in capsys.readouterr().err
+    assert not (tmp_path / "d.bvh").exists()
     np.save(tmp_path / "bad.npy", np.zeros((10, 3, 2), dtype=np.float32))
     code = main(
         [
             "generate",
-            "--task",
-            "motion2music",
+            "music",
             "--model",
             str(folder),
-            "--input",
+            "--motion",
             str(tmp_path / "bad.npy"),
             "--out",
             str(song),
         ]
     )
-    assert code == 2 and "motion must be (T, 14, 2)" in capsys.readouterr().err
+    assert code == 2 and "no registered skeleton has 3 joints" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------- recipe specs

@@ -25,6 +25,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "momu.cli.eval_cmd",
     "momu.cli.extractor_cmd",
     "momu.cli.generate_cmd",
+    "momu.cli.train_cmd",
 )
 
 USAGE_ERRORS = (ConfigError, UsageError, RegistryError, PluginError)
@@ -48,7 +49,13 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``momu`` command; returns the exit status (2 for usage and config errors, docs/errors.md)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    # Subcommands that take free ``key=value`` overrides after their options (``momu train``) set
+    # ``extra_overrides``; everything else is parsed strictly.
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        if not hasattr(args, "extra_overrides"):
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        args.extra_overrides = list(extra)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:

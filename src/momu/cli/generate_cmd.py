@@ -1,155 +1,253 @@
-"""``momu generate``: music for your motion, dance for your music, or both, with a trained MoMu model.
+"""``momu generate``: dance for your song, music for your dance (MoMu-Diffusion).
 
-    momu generate --task music2motion --model DIR --input song.wav --out dance.npy
-    momu generate --task motion2music --model DIR --input dance.npy --fps 60 --out song.wav
-    momu generate --task joint --model DIR --seconds 12 --out pair   # pair.wav + pair.npy
+    momu generate dance --music song.mp3 --out out/            # out/dance.mp4, dance.bvh, dance.npz
+    momu generate dance --music song.wav --out dance.bvh       # one file; its suffix picks the format
+    momu generate music --motion dance.bvh --out out/          # out/music.wav, music.mp4
+    momu generate joint --seconds 12 --out out/                # both at once (cross guidance)
 
-``DIR`` is a model folder written by :meth:`momu.methods.momu.MoMuModel.save` — every MoMu recipe
-writes one per trained configuration under ``<out>/<table>/models/momu-<hash>/``. Motion files are
-``.npy`` arrays ``(T, J, D)`` of keypoints in the model's skeleton and units (``openpose14``: 2D
-pixels); the output motion's frame rate is written next to it as ``<out>.json``.
+``--model DIR`` is a folder written by ``momu train`` (or a recipe: ``<out>/<table>/models/momu-*``);
+without it the model shipped with momu is used. Songs and dances of any length (up to 10 minutes) are
+generated in overlapping windows stitched by inpainting (:mod:`momu.generation`). Everything that can
+be checked without the model — the input file, the output path, the model folder's record, whether
+the motion's skeleton converts to the model's — is checked first; a problem prints one line
+``momu generate: error: ...`` and exits with status 2.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy
-from momu.errors import UsageError
-from momu.io import atomic_path, check_output_file, write_json
-from momu.metrics._audio import read_audio
+from momu.cli.generate_io import (
+    GenerateInputError,
+    ModelRecord,
+    default_model_dir,
+    file_sha256,
+    model_record,
+    read_song,
+    resolve_outputs,
+    song_warnings,
+)
+from momu.cli.generate_write import DANCE_FORMATS, MUSIC_FORMATS, write_dance_outputs, write_music_outputs
 
 log = logging.getLogger(__name__)
 
-TASKS = ("music2motion", "motion2music", "joint")
+JOINT_FORMATS = ("wav", "npz", "bvh", "mp4")
+
+
+def _formats(text: str | None) -> list[str] | None:
+    return None if text is None else [f.strip().lower().lstrip(".") for f in text.split(",") if f.strip()]
+
+
+def _common(p: argparse.ArgumentParser, formats: tuple[str, ...], seconds_help: str) -> None:
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help=f"output folder, or one file ending in {', '.join('.' + f for f in formats)}",
+    )
+    p.add_argument("--format", help=f"comma-separated subset of {','.join(formats)} (default: all)")
+    p.add_argument("--model", type=Path, help="a model folder from `momu train` (default: the shipped model)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (same seed, same result)")
+    p.add_argument("--guidance", type=float, help="classifier-free guidance scale s (MoMu Eq. 7)")
+    p.add_argument("--seconds", type=float, help=seconds_help)
+    p.add_argument("--video-fps", type=float, default=25.0, help="frame rate of the mp4 (default 25)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def add_parser(sub: Any) -> None:
-    p = sub.add_parser(
-        "generate", help="generate motion from music, music from motion, or both (MoMu-Diffusion)"
-    )
-    p.add_argument("--task", choices=TASKS, required=True, help="what to generate")
-    p.add_argument("--model", type=Path, required=True, help="a saved MoMu model folder (momu.json ...)")
-    p.add_argument("--input", type=Path, help="music2motion: an audio file; motion2music: a (T, J, D) .npy")
-    p.add_argument(
-        "--out", type=Path, required=True, help="output file (.npy motion, .wav music; joint: a stem)"
-    )
-    p.add_argument(
-        "--fps", type=float, default=None, help="motion2music: frame rate of --input (default: 60)"
-    )
-    p.add_argument("--seconds", type=float, default=10.0, help="joint: length in seconds (default 10)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (generation is deterministic per seed)")
-    p.add_argument(
-        "--guidance-scale", type=float, default=None, help="classifier-free guidance scale s (Eq. 7)"
-    )
-    p.add_argument("--bone-correction", action="store_true", help="apply MoMu App. E bone-length correction")
-    p.set_defaults(func=run)
-
-
-def _write_wav(path: Path, audio: np.ndarray, sample_rate: int) -> None:
-    import soundfile as sf
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        sf.write(str(tmp), np.asarray(audio, dtype=np.float32), sample_rate, format="WAV")
-
-
-def _write_motion(path: Path, motion: np.ndarray, fps: float, skeleton: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.save(fh, np.asarray(motion, dtype=np.float32), allow_pickle=False)
-    write_json(path.with_suffix(".json"), {"fps": fps, "skeleton": skeleton, "shape": list(motion.shape)})
-
-
-def _read_audio(path: Path) -> tuple[np.ndarray, int]:
-    try:
-        return read_audio(path)
-    except (FileNotFoundError, ValueError) as exc:
-        raise UsageError(f"--input {exc}") from None
-
-
-def _read_motion(path: Path, joints: int, dims: int) -> np.ndarray:
-    try:
-        motion = load_npy(path)
-    except DataFileError as exc:
-        raise UsageError(f"--input {exc}") from None
-    if motion.ndim != 3 or motion.shape[1:] != (joints, dims):
-        raise UsageError(f"--input {path}: motion must be (T, {joints}, {dims}), got {motion.shape}")
-    if not np.all(np.isfinite(motion)):
-        raise UsageError(f"--input {path}: motion contains NaN or infinite values")
-    return motion.astype(np.float32)
-
-
-def _outputs(args: argparse.Namespace) -> list[Path]:
-    """Every file the task writes (checked before the model is loaded)."""
-    out: Path = args.out
-    if args.task == "joint":
-        return [out.with_suffix(".wav"), out.with_suffix(".npy"), out.with_suffix(".json")]
-    suffix = ".npy" if args.task == "music2motion" else ".wav"
-    if out.suffix.lower() != suffix:
-        raise UsageError(f"--out {out}: {args.task} writes a {suffix} file; give a name ending in {suffix}")
-    return [out, out.with_suffix(".json")] if args.task == "music2motion" else [out]
-
-
-def _check_arguments(args: argparse.Namespace) -> None:
-    """Inputs, options and every output path, before any work."""
-    if args.task in ("music2motion", "motion2music"):
-        if args.input is None:
-            need = "an audio file" if args.task == "music2motion" else "a .npy motion file"
-            raise UsageError(f"--input: {args.task} needs {need}")
-        if not args.input.is_file():
-            raise UsageError(f"--input {args.input}: {absent_reason(args.input)}")
-        if args.task == "music2motion" and args.input.suffix.lower() not in AUDIO_SUFFIXES:
-            raise UsageError(
-                f"--input {args.input}: not an audio file (expected {', '.join(AUDIO_SUFFIXES)})"
-            )
-    if args.fps is not None and not args.fps > 0:
-        raise UsageError(f"--fps must be > 0, got {args.fps}")
-    if args.task == "joint" and not args.seconds > 0:
-        raise UsageError(f"--seconds must be > 0, got {args.seconds}")
-    model = Path(args.model)
-    if not model.is_dir():
-        raise UsageError(f"--model {model}: {absent_reason(model, 'model folder')}")
-    for path in _outputs(args):
-        try:
-            check_output_file(path, "--out")
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
+    p = sub.add_parser("generate", help="dance for your music, music for your dance (MoMu-Diffusion)")
+    what = p.add_subparsers(dest="what", metavar="WHAT")
+    what.required = True
+    d = what.add_parser("dance", help="dance for a song: mp4 (with the song), BVH, npz")
+    d.add_argument("--music", type=Path, required=True, help="the song: wav, mp3, flac, ogg, opus ...")
+    _common(d, DANCE_FORMATS, "use only the first SECONDS of the song")
+    d.set_defaults(func=run, direction="dance")
+    m = what.add_parser("music", help="music for a dance: wav (+ mp4 of the dance with it)")
+    m.add_argument("--motion", type=Path, required=True, help="BVH, npy, npz, or a Dance with Melody folder")
+    m.add_argument("--skeleton", help="the motion's skeleton when the file does not say (e.g. smpl24)")
+    m.add_argument("--fps", type=float, help="the motion's frame rate when the file does not say")
+    _common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
+    m.set_defaults(func=run, direction="music")
+    j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
+    _common(j, JOINT_FORMATS, "length in seconds (default 10)")
+    j.set_defaults(func=run, direction="joint")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the subcommand; bad inputs print one line ``momu generate: error: ...`` and return 2."""
-    _check_arguments(args)
+    """Run ``momu generate WHAT``; bad inputs print one line and return 2."""
+    try:
+        if args.guidance is not None and not np.isfinite(args.guidance):
+            raise GenerateInputError(f"--guidance must be a finite number, got {args.guidance}")
+        if not np.isfinite(args.video_fps) or args.video_fps <= 0:
+            raise GenerateInputError(f"--video-fps must be > 0, got {args.video_fps}")
+        return {"dance": _dance, "music": _music, "joint": _joint}[args.direction](args)
+    except (GenerateInputError, FileNotFoundError) as exc:
+        sys.stderr.write(f"momu generate: error: {exc}\n")
+        return 2
+
+
+def _record(args: argparse.Namespace, direction: str) -> ModelRecord:
+    from momu.training import find_model
+
+    return model_record(find_model(args.model) if args.model is not None else default_model_dir(direction))
+
+
+def _need_3d(outputs: dict[str, Path], record: ModelRecord) -> None:
+    if "bvh" in outputs and record.dims != 3:
+        raise GenerateInputError(
+            f"--model {record.folder}: generates 2D keypoints ({record.skeleton}); BVH needs a 3D model "
+            "(use --format mp4,npz, or a model trained on a 3D skeleton)"
+        )
+
+
+def _load(record: ModelRecord) -> Any:
     from momu.methods.momu import MoMuModel
 
     try:
-        model = MoMuModel.load(args.model)
-    except (ValueError, FileNotFoundError, OSError) as exc:
-        raise UsageError(f"--model {exc}") from None
-    if args.bone_correction:
-        model.cfg.bone_correction = True
-    rates = model.rates
-    if args.task == "music2motion":
-        audio, sr = _read_audio(args.input)
-        (motion,) = model.music_to_motion([audio], sr, [args.seed], guidance_scale=args.guidance_scale)
-        _write_motion(args.out, motion, rates.motion_fps, model.skeleton)
-    elif args.task == "motion2music":
-        motion_vae = model.vae.motion_vae
-        joints, dims = getattr(motion_vae, "num_joints", 0), getattr(motion_vae, "joint_dims", 0)
-        motion = _read_motion(args.input, int(joints), int(dims))
-        (audio,) = model.motion_to_music(
-            [motion], args.fps or 60.0, [args.seed], guidance_scale=args.guidance_scale
+        return MoMuModel.load(record.folder)
+    except (OSError, ValueError, KeyError) as exc:
+        raise GenerateInputError(f"--model {record.folder}: cannot load: {exc}") from None
+
+
+def _progress(total: int, desc: str, quiet: bool) -> Any:
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, unit="window", disable=quiet or None, dynamic_ncols=True)
+
+
+def _provenance(args: argparse.Namespace, record: ModelRecord, source: Path | None) -> dict[str, Any]:
+    from momu import __version__
+
+    prov: dict[str, Any] = {
+        "momu_version": __version__,
+        "command": ["momu", *sys.argv[1:]] if sys.argv and "momu" in Path(sys.argv[0]).name else None,
+        "direction": args.direction,
+        "model": str(record.folder),
+        "model_provenance": record.provenance,
+        "seed": args.seed,
+        "guidance": args.guidance,
+        "seconds": args.seconds,
+    }
+    if source is not None and source.is_file():
+        prov["input"] = {"path": str(source), "sha256": file_sha256(source)}
+    return prov
+
+
+def _dance(args: argparse.Namespace) -> int:
+    from momu.generation.momu_long import music_to_motion_long, plan_for_seconds
+
+    outputs = resolve_outputs(args.out, _formats(args.format), DANCE_FORMATS, "dance")
+    song = read_song(args.music, args.seconds)
+    song_warnings(song)
+    record = _record(args, "dance")
+    _need_3d(outputs, record)
+    model = _load(record)
+    plan = plan_for_seconds(model, song.duration, "motion")
+    with _progress(len(plan.starts), "dance", args.quiet) as bar:
+        (motion,) = music_to_motion_long(
+            model,
+            [song.audio],
+            song.sample_rate,
+            [args.seed],
+            guidance_scale=args.guidance,
+            progress=bar.update,
         )
-        _write_wav(args.out, audio, rates.sample_rate)
-    else:
-        ((audio, motion),) = model.joint([args.seconds], [args.seed])
-        _write_wav(args.out.with_suffix(".wav"), audio, rates.sample_rate)
-        _write_motion(args.out.with_suffix(".npy"), motion, rates.motion_fps, model.skeleton)
-    log.info("momu generate: wrote %s", args.out)
+    fps = model.rates.motion_fps
+    written = write_dance_outputs(
+        outputs,
+        motion,
+        fps,
+        model.skeleton,
+        song.audio,
+        song.sample_rate,
+        _provenance(args, record, args.music),
+        video_fps=args.video_fps,
+    )
+    log.info("momu generate dance: wrote %s", ", ".join(map(str, written)))
+    return 0
+
+
+def _music(args: argparse.Namespace) -> int:
+    from momu.data.motion_files import read_motion_file
+    from momu.features.convert import can_convert, convert_motion, stand_on_floor
+    from momu.generation.momu_long import motion_to_music_long, plan_for_seconds
+
+    outputs = resolve_outputs(args.out, _formats(args.format), MUSIC_FORMATS, "music")
+    if args.seconds is not None and (not np.isfinite(args.seconds) or args.seconds <= 0):
+        raise GenerateInputError(f"--seconds must be > 0, got {args.seconds}")
+    try:
+        given = read_motion_file(args.motion, skeleton=args.skeleton, fps=args.fps)
+    except ValueError as exc:
+        raise GenerateInputError(f"--motion {exc}") from None
+    motion, trajectory = given.motion, given.trajectory
+    if args.seconds is not None:
+        keep = max(2, int(round(args.seconds * given.fps)))
+        motion = motion[:keep]
+        trajectory = None if trajectory is None else trajectory[:keep]
+    record = _record(args, "music")
+    if not can_convert(given.skeleton, record.skeleton):
+        raise GenerateInputError(
+            f"--motion {args.motion}: cannot convert skeleton {given.skeleton!r} to the model's "
+            f"{record.skeleton!r} (2D keypoints have no depth for a 3D model)"
+        )
+    from momu.features.skeletons import get_skeleton
+
+    # the whole path in space (root-centred files carry it apart), on the floor and centred like the
+    # training data; 3D -> 2D conversion projects it with the synthetic data's camera
+    model_input = convert_motion(motion, given.skeleton, record.skeleton, trajectory=trajectory)
+    if get_skeleton(record.skeleton).dims == 3:
+        model_input = stand_on_floor(model_input, get_skeleton(record.skeleton).root).astype(np.float32)
+    if motion.shape[0] / given.fps < 2.0:
+        log.warning(
+            "%s: only %.2f s of motion; the music will be very short",
+            args.motion,
+            motion.shape[0] / given.fps,
+        )
+    model = _load(record)
+    plan = plan_for_seconds(model, motion.shape[0] / given.fps, "music")
+    with _progress(len(plan.starts), "music", args.quiet) as bar:
+        (audio,) = motion_to_music_long(
+            model, [model_input], given.fps, [args.seed], guidance_scale=args.guidance, progress=bar.update
+        )
+    shown = motion if trajectory is None else motion + trajectory[:, None, :]
+    written = write_music_outputs(
+        outputs, audio, model.rates.sample_rate, shown, given.fps, given.skeleton, video_fps=args.video_fps
+    )
+    log.info("momu generate music: wrote %s", ", ".join(map(str, written)))
+    return 0
+
+
+def _joint(args: argparse.Namespace) -> int:
+    outputs = resolve_outputs(args.out, _formats(args.format), JOINT_FORMATS, "joint")
+    seconds = 10.0 if args.seconds is None else float(args.seconds)
+    if not np.isfinite(seconds) or seconds <= 0:
+        raise GenerateInputError(f"--seconds must be > 0, got {args.seconds}")
+    record = _record(args, "dance")
+    _need_3d(outputs, record)
+    model = _load(record)
+    try:
+        ((audio, motion),) = model.joint([seconds], [args.seed])
+    except ValueError as exc:  # e.g. longer than the denoiser's max_length
+        raise GenerateInputError(f"--seconds {seconds}: {exc}") from None
+    sr, fps = model.rates.sample_rate, model.rates.motion_fps
+    dance = {k: v for k, v in outputs.items() if k in ("npz", "bvh", "mp4")}
+    written = write_dance_outputs(
+        dance,
+        motion,
+        fps,
+        model.skeleton,
+        audio,
+        sr,
+        _provenance(args, record, None),
+        video_fps=args.video_fps,
+    )
+    if "wav" in outputs:
+        written += write_music_outputs({"wav": outputs["wav"]}, audio, sr, motion, fps, model.skeleton)
+    log.info("momu generate joint: wrote %s", ", ".join(map(str, written)))
     return 0

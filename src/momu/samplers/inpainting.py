@@ -23,6 +23,7 @@ from torch import Tensor
 from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
+    Generators,
     guided_eps,
     make_noise,
     module_device,
@@ -107,7 +108,7 @@ class InpaintingSampler:
         noise: Tensor | Sequence[int] | None = None,
         x_mask: Tensor | None = None,
         cond_mask: Tensor | None = None,
-        generator: torch.Generator | None = None,
+        generator: Generators = None,
         guidance_scale: float | None = None,
         num_inference_steps: int | None = None,
     ) -> Tensor:
@@ -120,6 +121,7 @@ class InpaintingSampler:
             cond: optional ``(B, Tc, Cc)`` condition (e.g. music), guided with Eq. 7.
             noise: initial noise (default: drawn from ``generator`` with ``known``'s shape).
             x_mask, cond_mask: valid-frame masks for variable-length batches.
+            generator: one generator, or one per item (an item's noise then depends on its own only).
 
         Returns:
             ``(B, T, C)``; exactly ``known`` on the known frames.
@@ -144,10 +146,9 @@ class InpaintingSampler:
         if x_T.shape != known.shape:
             raise ValueError(f"noise: shape {tuple(x_T.shape)} differs from known {tuple(known.shape)}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
-        gen_device = generator.device if generator is not None else device
 
         def replace_known(x: Tensor, t_int: int) -> Tensor:
-            eps = torch.randn(known.shape, generator=generator, device=gen_device, dtype=dtype).to(device)
+            eps = make_noise(known.shape, generator, device, dtype)
             t = torch.full((known.shape[0],), t_int, dtype=torch.long, device=device)
             return torch.where(mask, self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
 

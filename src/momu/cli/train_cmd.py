@@ -1,0 +1,63 @@
+"""``momu train METHOD``: train one method's models on a dataset, no table (:mod:`momu.training`).
+
+    momu train momu --data synth --out runs/momu                       # synth_dance, the cpu preset
+    momu train momu --data ../shared/data/dance_with_melody --out runs/dwm
+    momu train momu --preset smoke --out /tmp/t method.train_diffusion.steps=10
+
+The result is ``<out>/models/<method>-<hash>/``: ``momu generate dance --model <out>`` uses it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from momu.config import ConfigError
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    from momu.training import RECIPES
+
+    p = sub.add_parser("train", help="train a method's models on a dataset (no table)")
+    p.add_argument("method", choices=sorted(RECIPES), help="the method to train")
+    p.add_argument("--data", default="synth", help="'synth' (synth_dance) or a dataset folder")
+    p.add_argument("--dataset", help="registered loader for --data DIR (default: detected from the layout)")
+    p.add_argument("--preset", default="cpu", help="smoke | cpu | paper (default cpu)")
+    p.add_argument("--out", type=Path, required=True, help="output folder (parts/, models/, train.json)")
+    p.add_argument("--seed", type=int, help="training seed (default: the config's)")
+    p.add_argument(
+        "overrides", nargs="*", help="config overrides key=value (e.g. method.train_diffusion.steps=500)"
+    )
+    p.set_defaults(func=run, extra_overrides=[])
+
+
+def run(args: argparse.Namespace) -> int:
+    from momu.training import train_method
+
+    overrides = [*args.overrides, *args.extra_overrides]
+    bad = [o for o in overrides if "=" not in o]
+    if bad:
+        sys.stderr.write(f"momu train: error: overrides must be key=value, got {bad}\n")
+        return 2
+    if args.out.exists() and not args.out.is_dir():
+        sys.stderr.write(f"momu train: error: --out {args.out} is a file\n")
+        return 2
+    try:
+        result = train_method(
+            args.method,
+            args.out,
+            data=args.data,
+            dataset=args.dataset,
+            preset=args.preset,
+            overrides=overrides,
+            seed=args.seed,
+        )
+    except (ConfigError, FileNotFoundError) as exc:
+        sys.stderr.write(f"momu train: error: {exc}\n")
+        return 2
+    sys.stdout.write(f"{result.model}\n")
+    return 0

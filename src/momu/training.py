@@ -1,0 +1,181 @@
+"""Train one method's models on a dataset without running a table: what ``momu train`` does.
+
+Output layout (the recipes' own, so ``momu generate --model`` reads either):
+
+    <out>/parts/<stage>-<hash>/   trained stages (the run context's cache: a re-run reuses them)
+    <out>/models/<method>-<hash>/ the saved model (``momu generate --model <out>`` finds it)
+    <out>/config.yaml             the resolved config
+    <out>/train.json              provenance: command, commit, data hashes, seed, versions, wall time
+
+A method plugs in through the method registry (``METHODS``): its factory builds an object with
+``fit(ctx, dataset, data_key, seed)`` returning a model with ``save(folder)``, and :data:`RECIPES` maps
+its name to the module holding its base config and presets (``BASE_CONFIG``, ``PRESETS``), so that
+mofusion and harmogan join by adding a line. The dataset fixes the motion shape: the encoder's joint
+count and dimension are set from the training clips (``method.encoder.num_joints``/``joint_dims``),
+and the frame rate is each clip's own.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import logging
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momu.config import ConfigError, build_component, load_config, save_config, to_container
+from momu.io import write_json
+
+__all__ = ["RECIPES", "TrainResult", "train_config", "train_method", "detect_dataset", "find_model"]
+
+log = logging.getLogger(__name__)
+
+RECIPES: dict[str, str] = {"momu": "momu.methods.momu.recipes"}
+"""Method name → module with ``BASE_CONFIG`` (a YAML path) and ``PRESETS`` (name → overrides)."""
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """Where ``train_method`` wrote the model and its record."""
+
+    out: Path
+    model: Path
+    record: dict[str, Any]
+
+
+def _recipe(method: str) -> Any:
+    if method not in RECIPES:
+        raise ConfigError(
+            f"momu train: no training recipe for method {method!r}; available: {sorted(RECIPES)}"
+        )
+    return importlib.import_module(RECIPES[method])
+
+
+def detect_dataset(root: Path) -> str:
+    """The registered loader for a dataset folder in its published layout (Dance with Melody so far)."""
+    if not root.is_dir():
+        raise ConfigError(f"--data {root}: dataset folder not found")
+    if any(p.is_dir() and p.name.startswith("DANCE_") for p in root.iterdir()):
+        return "dance_with_melody"
+    raise ConfigError(
+        f"--data {root}: layout not recognised (Dance with Melody: DANCE_*/ folders); name the loader with "
+        "--dataset (momu list datasets)"
+    )
+
+
+def train_config(
+    method: str,
+    *,
+    data: str = "synth",
+    dataset: str | None = None,
+    preset: str = "cpu",
+    overrides: Sequence[str] = (),
+) -> Any:
+    """The validated config of a training run: the method's base YAML, the preset, the data, overrides."""
+    recipe = _recipe(method)
+    if preset not in recipe.PRESETS:
+        raise ConfigError(f"--preset {preset}: valid presets for {method}: {', '.join(recipe.PRESETS)}")
+    data_overrides: list[str] = []
+    if data != "synth":
+        root = Path(data)
+        name = dataset or detect_dataset(root)
+        data_overrides = [f"dataset={name}", f"dataset.root={root.resolve()}"]
+    elif dataset is not None:
+        raise ConfigError("--dataset names a loader for --data DIR; with --data synth it is synth_dance")
+    return load_config(recipe.BASE_CONFIG, [*recipe.PRESETS[preset], *data_overrides, *overrides])
+
+
+def _motion_shape(ds: Any) -> tuple[int, int]:
+    from momu.methods.momu.data import select_split
+
+    train = select_split(ds, "train")
+    if not train:
+        splits = sorted({str(ds[i].meta.get("split", "train")) for i in range(len(ds))})
+        raise ConfigError(f"dataset has no 'train' clips with motion and audio (splits present: {splits})")
+    motion = ds[train[0]].motion
+    return int(motion.shape[1]), int(motion.shape[2])
+
+
+def _data_hashes(ds: Any, cfg: Any) -> dict[str, Any]:
+    """SHA-256 of every clip's motion and audio arrays (as loaded), and of the dataset config."""
+    clips = {}
+    for i in range(len(ds)):
+        clip = ds[i]
+        digest = hashlib.sha256()
+        for arr in (clip.motion, clip.audio):
+            if arr is not None:
+                digest.update(np.ascontiguousarray(arr, dtype=np.float32).tobytes())
+        clips[clip.id] = {"sha256": digest.hexdigest(), "split": str(clip.meta.get("split", "train"))}
+    node = json.dumps(to_container(cfg.dataset), sort_keys=True, default=str)
+    return {"config_sha256": hashlib.sha256(node.encode()).hexdigest(), "clips": clips}
+
+
+def find_model(folder: Path) -> Path:
+    """A model folder: ``folder`` itself, or the only ``models/*`` inside a ``momu train`` output."""
+    if (folder / "momu.json").is_file():
+        return folder
+    found = sorted(p.parent for p in (folder / "models").glob("*/momu.json"))
+    if len(found) == 1:
+        return found[0]
+    if len(found) > 1:
+        raise ConfigError(f"{folder}: holds several models ({', '.join(p.name for p in found)}); name one")
+    return folder
+
+
+def train_method(
+    method: str,
+    out: Path,
+    *,
+    data: str = "synth",
+    dataset: str | None = None,
+    preset: str = "cpu",
+    overrides: Sequence[str] = (),
+    seed: int | None = None,
+    command: Sequence[str] | None = None,
+) -> TrainResult:
+    """Train ``method`` on ``data`` (``synth`` or a folder) and save the model under ``out``."""
+    from momu.engine import RunConfig, make_accelerator
+    from momu.engine.context import RunContext, stage_key_hash
+    from momu.engine.provenance import git_commit, package_versions
+
+    cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=overrides)
+    ds = build_component(cfg.dataset, "datasets")
+    joints, dims = _motion_shape(ds)
+    shape = [f"method.encoder.num_joints={joints}", f"method.encoder.joint_dims={dims}"]
+    cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=[*overrides, *shape])
+    run_seed = int(cfg.get("seed", 0) if seed is None else seed)
+    out.mkdir(parents=True, exist_ok=True)
+    save_config(cfg, out / "config.yaml")
+    start = time.time()
+    accelerator = make_accelerator(RunConfig(tracker="none", seed=run_seed), out, f"train-{method}", {})
+    ctx = RunContext(accelerator=accelerator, out_dir=out)
+    runner = build_component(cfg.method, "methods")
+    data_key = to_container(cfg.dataset)
+    model = runner.fit(ctx, ds, data_key, run_seed)
+    keys = runner.stage_keys(data_key, run_seed) if hasattr(runner, "stage_keys") else {"model": data_key}
+    folder = out / "models" / f"{method}-{stage_key_hash(keys[list(keys)[-1]])}"
+    record = {
+        "method": method,
+        "command": list(command) if command is not None else ["momu", *sys.argv[1:]],
+        "git_commit": git_commit(),
+        "preset": preset,
+        "data": data,
+        "seed": run_seed,
+        "data_hashes": _data_hashes(ds, cfg),
+        "versions": package_versions(),
+        "wall_time_s": round(time.time() - start, 1),
+        "stages": dict(ctx.trained),
+    }
+    if accelerator.is_main_process:
+        model.save(folder)
+        write_json(folder / "provenance.json", record)
+        write_json(out / "train.json", {**record, "model": str(folder.relative_to(out))})
+    log.info("momu train: %s model in %s (%.0f s)", method, folder, record["wall_time_s"])
+    return TrainResult(out, folder, record)
