@@ -421,3 +421,41 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert cpu.method.music_sampler.guidance_scale == 5.0 and cpu.method.sampler.guidance_scale == 3.0
     assert paper["#7"].method.music_sampler is None
     assert cpu.method.music_backbone.cond_add and cpu.method.motion_backbone.cond_add
+
+
+def test_variable_length_training_masks_prefixes_within_the_window_and_keys_the_stage() -> None:
+    from momu.methods.momu.stages import DiffusionStage
+
+    data = {"name": "synth_dance"}
+    fixed = build_component(load_config(tiny_config()).method, "methods").stage_keys(data, 0)
+    varied = build_component(load_config(tiny_config(train_min_seconds=0.5)).method, "methods").stage_keys(
+        data, 0
+    )
+    assert varied["diffusion"] != fixed["diffusion"] and varied["motion_vae"] == fixed["motion_vae"]
+
+    class Echo(nn.Module):  # records the masks the loss hands the backbone
+        in_channels = cond_channels = 4
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.w = nn.Parameter(torch.zeros(()))
+            self.masks: list[torch.Tensor] = []
+
+        def forward(self, x, t, cond=None, *, x_mask=None, cond_mask=None, drop_cond=None):
+            self.masks.append(x_mask)
+            assert cond_mask is x_mask  # aligned latents: the condition keeps the same frames
+            return x * self.w
+
+    loss = build_component(
+        {"name": "diffusion"}, "losses", scheduler=build_component({"name": "ddpm"}, "schedulers")
+    )
+    music, motion = Echo(), Echo()
+    stage = DiffusionStage(music, motion, loss, 4, min_frames=3).train()
+    torch.manual_seed(0)
+    for _ in range(20):
+        stage({"z_music": torch.randn(8, 10, 4), "z_motion": torch.randn(8, 10, 4)})
+    lengths = torch.cat([m.sum(dim=1) for m in music.masks])
+    assert int(lengths.min()) >= 3 and int(lengths.max()) == 10 and len(set(lengths.tolist())) > 4
+    assert all(bool((m[:, :-1] >= m[:, 1:]).all()) for m in music.masks)  # valid frames first
+    stage.eval()
+    assert stage.length_mask(8, 10, torch.device("cpu")) is None  # evaluation sees whole windows
