@@ -22,7 +22,7 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from momu.engine.table_report import cells_caption, ordering_lines, verdict_lines
+from momu.engine.table_report import cells_caption, ordering_lines, size_line, verdict_lines
 from momu.io import atomic_write_text
 
 __all__ = ["MARKER", "publish", "readme_text"]
@@ -53,6 +53,7 @@ def readme_text(result: dict[str, Any], command: str) -> str:
         "data stand in for the paper's datasets, so compare our rows with the calibration rows and",
         "with each other, not the absolute values with the paper's.",
         cells_caption(result),
+        size_line(result),
         *verdict_lines(result),
         *ordering_lines(result),
     ]

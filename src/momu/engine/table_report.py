@@ -13,7 +13,7 @@ from typing import Any
 from momu.engine.scores import VARIANTS
 from momu.engine.table_results import outcome_phrase
 
-__all__ = ["fmt", "cell", "render_markdown", "verdict_lines", "ordering_lines", "cells_caption"]
+__all__ = ["fmt", "cell", "render_markdown", "verdict_lines", "ordering_lines", "cells_caption", "size_line"]
 
 
 def fmt(value: float | None, signed: bool = False) -> str:
@@ -43,6 +43,22 @@ def cells_caption(result: Mapping[str, Any]) -> str:
             "Student-t interval over seeds."
         )
     return f"Cells: one training seed ({seeds[0]}); no interval can be given."
+
+
+def size_line(result: Mapping[str, Any]) -> str:
+    """How many clips the per-clip comparisons pair (per row and seed), or ``""`` without any."""
+    counts = sorted(
+        {
+            len(arr[0])
+            for row in result["rows"]
+            for d in row.get("per_clip", {}).values()
+            for arr in d.values()
+        }
+    )
+    if not counts:
+        return ""
+    clips = str(counts[0]) if len(counts) == 1 else f"{counts[0]}–{counts[-1]}"
+    return f"Per-clip comparisons pair {clips} evaluation clips per row and seed."
 
 
 def _interval_text(rec: Mapping[str, Any]) -> str:
@@ -151,6 +167,7 @@ def render_markdown(result: Mapping[str, Any], notes: Sequence[str] = ()) -> str
         f"Preset `{result['preset']}`, data `{result['data']}`, seeds {result['seeds']}, "
         f"{prov['num_processes']} process(es) on {prov['device']}, {prov['wall_time_s']:.0f} s.",
         cells_caption(result),
+        size_line(result),
         "",
         *_table(result),
         "",
