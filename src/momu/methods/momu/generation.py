@@ -8,7 +8,7 @@ isolates the effect of the condition.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -33,6 +33,35 @@ def _variants(other: bool, n: int) -> tuple[str, ...]:
     return (ROW, OTHER) if other and n > 1 else (ROW,)
 
 
+def _generate(
+    ctx: RunContext,
+    truth: Sequence[Clip],
+    seed: int,
+    batch_size: int,
+    other: bool,
+    condition: Callable[[Clip], Any],
+    sample: Callable[[list[Any], list[int]], list[np.ndarray]],
+    desc: str,
+) -> tuple[tuple[str, ...], list[dict[str, np.ndarray]]]:
+    """Samples from each clip's condition (``row``) and clip π(i)'s (``other condition``), in order."""
+    perm = derangement(len(truth))
+    variants = _variants(other, len(truth))
+
+    def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
+        seeds = eval_seeds(seed, indices)
+        sources = {ROW: indices, OTHER: [perm[i] for i in indices]}
+        conds = [condition(truth[j]) for v in variants for j in sources[v]]
+        out = sample(conds, seeds * len(variants))
+        n = len(indices)
+        return [{v: out[k * n + i] for k, v in enumerate(variants)} for i in range(n)]
+
+    with ctx.timed(f"sample {desc}"):
+        results = map_gathered(
+            ctx.accelerator, list(range(len(truth))), generate, batch_size=batch_size, desc=desc
+        )
+    return variants, results
+
+
 def generate_music(
     ctx: RunContext, model: Any, truth: Sequence[Clip], seed: int, batch_size: int, *, other: bool = True
 ) -> dict[str, list[Clip]]:
@@ -41,25 +70,11 @@ def generate_music(
     ``model`` has ``motion_to_music(motions, fps, seeds)`` and ``rates`` (a trained MoMu, or the
     Tables 3–4 learnable model). Returns clips carrying the generated audio, keyed by variant.
     """
-    perm = derangement(len(truth))
-    variants = _variants(other, len(truth))
 
-    def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
-        seeds = eval_seeds(seed, indices)
-        sources = {ROW: indices, OTHER: [perm[i] for i in indices]}
-        motions, fps, all_seeds = [], [], []
-        for v in variants:
-            motions += [truth[j].motion for j in sources[v]]
-            fps += [float(truth[j].fps) for j in sources[v]]
-            all_seeds += seeds
-        music = model.motion_to_music(motions, fps, all_seeds)
-        n = len(indices)
-        return [{v: music[k * n + i] for k, v in enumerate(variants)} for i in range(n)]
+    def sample(conds: list[Clip], seeds: list[int]) -> list[np.ndarray]:
+        return list(model.motion_to_music([c.motion for c in conds], [float(c.fps) for c in conds], seeds))
 
-    with ctx.timed("sample motion→music"):
-        results = map_gathered(
-            ctx.accelerator, list(range(len(truth))), generate, batch_size=batch_size, desc="motion→music"
-        )
+    variants, results = _generate(ctx, truth, seed, batch_size, other, lambda c: c, sample, "motion→music")
     sr = int(model.rates.sample_rate)
     return {
         v: [replace_clip(t, f"/{v}", audio=r[v], sample_rate=sr) for t, r in zip(truth, results)]
@@ -71,25 +86,14 @@ def generate_motion(
     ctx: RunContext, model: Any, truth: Sequence[Clip], seed: int, batch_size: int, *, other: bool = True
 ) -> dict[str, list[Clip]]:
     """Motion generated from each clip's music (``row``) and from clip π(i)'s (``other condition``)."""
-    perm = derangement(len(truth))
-    variants = _variants(other, len(truth))
     sr = int(truth[0].sample_rate or model.rates.sample_rate)
 
-    def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
-        seeds = eval_seeds(seed, indices)
-        sources = {ROW: indices, OTHER: [perm[i] for i in indices]}
-        conds, all_seeds = [], []
-        for v in variants:
-            conds += [truth[j].audio for j in sources[v]]
-            all_seeds += seeds
-        motions = model.music_to_motion(conds, sr, all_seeds)
-        n = len(indices)
-        return [{v: motions[k * n + i] for k, v in enumerate(variants)} for i in range(n)]
+    def sample(conds: list[np.ndarray], seeds: list[int]) -> list[np.ndarray]:
+        return list(model.music_to_motion(conds, sr, seeds))
 
-    with ctx.timed("sample music→motion"):
-        results = map_gathered(
-            ctx.accelerator, list(range(len(truth))), generate, batch_size=batch_size, desc="music→motion"
-        )
+    variants, results = _generate(
+        ctx, truth, seed, batch_size, other, lambda c: c.audio, sample, "music→motion"
+    )
     fps = float(model.rates.motion_fps)
     return {
         v: [replace_clip(t, f"/{v}", motion=r[v], fps=fps) for t, r in zip(truth, results)] for v in variants
