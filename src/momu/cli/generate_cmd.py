@@ -34,6 +34,7 @@ from momu.cli.generate_io import (
     song_warnings,
 )
 from momu.cli.generate_write import DANCE_FORMATS, MUSIC_FORMATS, write_dance_outputs, write_music_outputs
+from momu.data.common import AUDIO_SUFFIXES
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +66,12 @@ def add_parser(sub: Any) -> None:
     what = p.add_subparsers(dest="what", metavar="WHAT")
     what.required = True
     d = what.add_parser("dance", help="dance for a song: mp4 (with the song), BVH, npz")
-    d.add_argument("--music", type=Path, required=True, help="the song: wav, mp3, flac, ogg, opus ...")
+    d.add_argument(
+        "--music",
+        type=Path,
+        required=True,
+        help=f"the song: {', '.join(s.lstrip('.') for s in AUDIO_SUFFIXES)}, or anything ffmpeg decodes",
+    )
     _common(d, DANCE_FORMATS, "use only the first SECONDS of the song")
     d.set_defaults(func=run, direction="dance")
     m = what.add_parser("music", help="music for a dance: wav (+ mp4 of the dance with it)")
