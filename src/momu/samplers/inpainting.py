@@ -23,6 +23,7 @@ from torch import Tensor
 from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
+    Generators,
     guided_eps,
     make_noise,
     module_device,
@@ -107,7 +108,7 @@ class InpaintingSampler:
         noise: Tensor | Sequence[int] | None = None,
         x_mask: Tensor | None = None,
         cond_mask: Tensor | None = None,
-        generator: torch.Generator | None = None,
+        generator: Generators = None,
         guidance_scale: float | None = None,
         num_inference_steps: int | None = None,
     ) -> Tensor:
@@ -119,6 +120,8 @@ class InpaintingSampler:
             known_mask: ``(B, T)`` or ``(B, T, C)`` bool, True = known; ``None`` = the preset.
             cond: optional ``(B, Tc, Cc)`` condition (e.g. music), guided with Eq. 7.
             noise: initial noise (default: drawn from ``generator`` with ``known``'s shape).
+            generator: one generator, or one per item (each item's noise then depends on its own
+                generator only).
             x_mask, cond_mask: valid-frame masks for variable-length batches.
 
         Returns:
@@ -144,10 +147,8 @@ class InpaintingSampler:
         if x_T.shape != known.shape:
             raise ValueError(f"noise: shape {tuple(x_T.shape)} differs from known {tuple(known.shape)}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
-        gen_device = generator.device if generator is not None else device
-
         def replace_known(x: Tensor, t_int: int) -> Tensor:
-            eps = torch.randn(known.shape, generator=generator, device=gen_device, dtype=dtype).to(device)
+            eps = make_noise(known.shape, generator, device, dtype)  # per-item generators: per-item noise
             t = torch.full((known.shape[0],), t_int, dtype=torch.long, device=device)
             return torch.where(mask, self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
 
