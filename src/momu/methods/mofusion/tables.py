@@ -50,7 +50,11 @@ def paper_preset(path: Path = PAPER_CONFIG, section: str = "music") -> list[str]
         return []
     tree: Any = OmegaConf.to_container(OmegaConf.load(path), resolve=False)
     cfg = tree[section]
-    out = [f"seed={cfg['seed']}", f"mixed_precision={cfg['mixed_precision']}"]
+    out = [
+        f"seed={cfg['seed']}",
+        f"mixed_precision={cfg['mixed_precision']}",
+        f"lengths={json.dumps(cfg['lengths'])}",
+    ]
     for key in ("dataset", "method"):
         out += [f"{key}={cfg[key]['name']}", f"{key}={json.dumps(cfg[key])}"]
     return out
