@@ -63,14 +63,26 @@ log = logging.getLogger(__name__)
 OTHER = "other condition"
 
 
+SHARED_PARTS = "mofusion_shared"
+"""Folder beside the tables' folders whose ``parts/`` holds every MoFusion stage, so Table 1 and
+supp. Tables 1–2 run with the same ``--out`` train each model once (supp. A: no retraining)."""
+
+
+def shared_context(ctx: RunContext) -> RunContext:
+    """``ctx`` with its stage cache in ``<out>/mofusion_shared/parts`` (the records stay ``ctx``'s)."""
+    return dataclasses.replace(ctx, out_dir=ctx.out_dir.parent / SHARED_PARTS)
+
+
 def fit_mofusion(ctx: RunContext, cfg: DictConfig, seed: int) -> tuple[MoFusion, MoFusionModel, Any, str]:
     """Train (or reuse) ``cfg.method`` on ``cfg.dataset`` for ``seed``; the model is saved once under
-    ``<out>/models/<stage folder>``. Returns ``(method, model, dataset, model folder relative to out)``."""
+    ``<out>/models/<stage folder>``. Returns ``(method, model, dataset, model folder relative to out)``.
+
+    The stage is cached in the tables' shared folder (:func:`shared_context`)."""
     method = build_component(cfg.method, "methods")
     if not isinstance(method, MoFusion):
         raise ValueError(f"method: expected 'mofusion', got {type(method).__name__}")
     dataset = build_component(cfg.dataset, "datasets")
-    model, stage = method.fit(ctx, dataset, to_container(cfg.dataset), seed)
+    model, stage = method.fit(shared_context(ctx), dataset, to_container(cfg.dataset), seed)
     folder = ctx.out_dir / "models" / stage
     if ctx.accelerator.is_main_process and not (folder / "mofusion.json").is_file():
         model.save(folder)
