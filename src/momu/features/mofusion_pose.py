@@ -18,7 +18,7 @@ map (MoFusion's ``δ`` in L_a).
 
 from __future__ import annotations
 
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import torch
@@ -26,8 +26,6 @@ import torch
 from momu.features.skeletons import Skeleton
 
 __all__ = ["encode_pose", "decode_pose", "mirror_bone_pairs", "pose_channels"]
-
-Array = TypeVar("Array", np.ndarray, torch.Tensor)
 
 
 def pose_channels(num_joints: int) -> int:
@@ -42,8 +40,9 @@ def _check(motion: Any, root: int) -> None:
         raise ValueError(f"root: joint index {root} out of range for {motion.shape[-2]} joints")
 
 
-def encode_pose(motion: Array, root: int = 0) -> Array:
-    """``(..., J, 3)`` global positions -> ``(..., 3J)`` MoFusion pose vectors (§3)."""
+def encode_pose(motion: Any, root: int = 0) -> Any:
+    """``(..., J, 3)`` global positions -> ``(..., 3J)`` MoFusion pose vectors (§3); numpy or torch in,
+    the same type out."""
     _check(motion, root)
     p_root = motion[..., root : root + 1, :]
     rel = motion - p_root
@@ -56,7 +55,7 @@ def encode_pose(motion: Array, root: int = 0) -> Array:
     return rel.reshape(*rel.shape[:-2], -1)
 
 
-def decode_pose(vectors: Array, num_joints: int, root: int = 0) -> Array:
+def decode_pose(vectors: Any, num_joints: int, root: int = 0) -> Any:
     """``(..., 3J)`` MoFusion pose vectors -> ``(..., J, 3)`` global positions (inverse of encode)."""
     if vectors.shape[-1] != pose_channels(num_joints):
         raise ValueError(

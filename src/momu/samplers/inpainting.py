@@ -147,6 +147,7 @@ class InpaintingSampler:
         if x_T.shape != known.shape:
             raise ValueError(f"noise: shape {tuple(x_T.shape)} differs from known {tuple(known.shape)}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
+
         def replace_known(x: Tensor, t_int: int) -> Tensor:
             eps = make_noise(known.shape, generator, device, dtype)  # per-item generators: per-item noise
             t = torch.full((known.shape[0],), t_int, dtype=torch.long, device=device)

@@ -109,6 +109,18 @@ def metric_motion(motion: np.ndarray, fps: float, model_fps: float, metric_fps: 
     return resample_motion(at_model, model_fps, metric_fps).astype(np.float32)
 
 
+def _music(clip: Clip) -> tuple[np.ndarray, int]:
+    if clip.audio is None or not clip.sample_rate:
+        raise ValueError(f"clip {clip.id!r} has no audio")
+    return np.asarray(clip.audio), int(clip.sample_rate)
+
+
+def _motion(clip: Clip) -> np.ndarray:
+    if clip.motion is None:
+        raise ValueError(f"clip {clip.id!r} has no motion")
+    return np.asarray(clip.motion)
+
+
 def _clip(base: Clip, motion: np.ndarray, fps: float, suffix: str, **meta: Any) -> Clip:
     return dataclasses.replace(
         base, id=base.id + suffix, motion=motion, fps=fps, trajectory=None, meta={**base.meta, **meta}
@@ -127,12 +139,7 @@ def kinematic_columns(positions: np.ndarray, skeleton: str) -> tuple[float, floa
 def _beats(clips: list[Clip], metric_fps: float) -> list[np.ndarray]:
     from momu.metrics.beats import resample_beat_frames
 
-    return [
-        resample_beat_frames(
-            music_beats(c.audio, int(c.sample_rate or 0), recipe="bailando"), 60.0, metric_fps
-        )
-        for c in clips
-    ]
+    return [resample_beat_frames(music_beats(*_music(c), recipe="bailando"), 60.0, metric_fps) for c in clips]
 
 
 def _bas(motions: list[np.ndarray], beats: list[np.ndarray], seed_frames: int = 0) -> np.ndarray:
@@ -147,8 +154,8 @@ def _generate(
 
     def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
         seeds = eval_seeds(seed, indices)
-        music = [(truth[j].audio, truth[j].sample_rate) for j in indices]
-        music += [(truth[perm[j]].audio, truth[perm[j]].sample_rate) for j in indices]
+        music = [_music(truth[j]) for j in indices]
+        music += [_music(truth[perm[j]]) for j in indices]
         secs = [ev.seconds] * len(music)
         if ev.mode == "forecast":
             motions = [global_positions(truth[j]) for j in indices] * 2
@@ -174,7 +181,7 @@ def _multimodality(
     jobs = [(i, s) for i in range(m) for s in range(k)]
 
     def generate(indices: list[int]) -> list[np.ndarray]:
-        music = [(truth[jobs[j][0]].audio, truth[jobs[j][0]].sample_rate) for j in indices]
+        music = [_music(truth[jobs[j][0]]) for j in indices]
         seeds = [seed * 100_003 + 10_007 * (1 + jobs[j][1]) + jobs[j][0] for j in indices]
         return model.music_to_dance(music, [ev.seconds] * len(indices), seeds)
 
@@ -222,7 +229,7 @@ def evaluate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         gt = _gt_metric_clips(truth, ev, fps)
         gen = {v: [metric_motion(m, fps, fps, mfps) for m in samples[v]] for v in samples}
         perm = derangement(len(truth))
-        gt_motion = [c.motion for c in gt]
+        gt_motion = [_motion(c) for c in gt]
         scores.add_clips("bas", ROW, _bas(gen[ROW], beats))
         scores.add_clips("bas", OTHER, _bas(gen[OTHER], beats))
         scores.add_clips("bas", "shuffled", _bas([gt_motion[p] for p in perm], beats))
@@ -303,7 +310,7 @@ def calibrate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sc
             eval_clips(dataset, ev.reference_split, len(truth), ev.seconds, "music"), ev, fps
         )
         floor = _distributional(others, gt)
-        motion = [c.motion for c in gt]
+        motion = [_motion(c) for c in gt]
         out = {}
         for name, order in (
             ("ground truth", list(range(len(gt)))),

@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import torch
@@ -157,7 +157,7 @@ class MoFusionModel:
         if not len(conds) == len(seconds) == len(seeds):
             raise ValueError(f"{len(conds)} conditions, {len(seconds)} lengths and {len(seeds)} seeds")
         lengths = [self.frames(s) for s in seconds]
-        channels = int(self.backbone.in_channels)
+        channels = int(cast(Any, self.backbone).in_channels)  # the backbone protocol's width
         gens = [torch.Generator().manual_seed(int(s)) for s in seeds]
         noise, x_mask = _pad([torch.randn(n, channels, generator=g) for n, g in zip(lengths, gens)])
         cond, cond_mask = self._conditions(conds, seconds)
