@@ -57,6 +57,7 @@ __all__ = [
     "evaluate_music",
     "calibrate_music",
     "kinematic_columns",
+    "repeated_samples",
 ]
 
 log = logging.getLogger(__name__)
@@ -174,21 +175,32 @@ def _generate(
     return {v: [r[v] for r in res] for v in (ROW, OTHER)}
 
 
-def _multimodality(
-    ctx: RunContext, model: MoFusionModel, truth: list[Clip], gt: list[Clip], ev: Any, seed: int
-) -> float:
-    k, m = int(ev.multimodality_samples), min(int(ev.multimodality_clips), len(truth))
+def repeated_samples(
+    ctx: RunContext, sample: Any, conds: list[Any], ev: Any, seed: int
+) -> tuple[list[tuple[int, int]], list[np.ndarray]]:
+    """``multimodality_samples`` generations for each of the first ``multimodality_clips`` conditions.
+
+    ``sample(conds, seconds, seeds)`` is the model's generator (music or text); generation ``s`` of
+    condition ``i`` has its own seed. Returns the ``(i, s)`` jobs and the motions, in job order.
+    """
+    k, m = int(ev.multimodality_samples), min(int(ev.multimodality_clips), len(conds))
     jobs = [(i, s) for i in range(m) for s in range(k)]
 
     def generate(indices: list[int]) -> list[np.ndarray]:
-        music = [_music(truth[jobs[j][0]]) for j in indices]
         seeds = [seed * 100_003 + 10_007 * (1 + jobs[j][1]) + jobs[j][0] for j in indices]
-        return model.music_to_dance(music, [ev.seconds] * len(indices), seeds)
+        return list(sample([conds[jobs[j][0]] for j in indices], [ev.seconds] * len(indices), seeds))
 
     with ctx.timed("sample multimodality"):
         res = map_gathered(
             ctx.accelerator, list(range(len(jobs))), generate, batch_size=ev.batch_size, desc="mmodality"
         )
+    return jobs, res
+
+
+def _multimodality(
+    ctx: RunContext, model: MoFusionModel, truth: list[Clip], gt: list[Clip], ev: Any, seed: int
+) -> float:
+    jobs, res = repeated_samples(ctx, model.music_to_dance, [_music(c) for c in truth], ev, seed)
     clips = [
         _clip(
             truth[i],

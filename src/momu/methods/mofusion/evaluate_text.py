@@ -40,7 +40,7 @@ from momu.methods.mofusion.data import (
     resample_motion,
     split_indices,
 )
-from momu.methods.mofusion.evaluate import eval_clips, fit_mofusion
+from momu.methods.mofusion.evaluate import eval_clips, fit_mofusion, repeated_samples
 from momu.methods.momu.generation import eval_seeds
 from momu.methods.momu.scoring import derangement
 from momu.methods.momu.stages import stage_step
@@ -142,20 +142,10 @@ def _generate(
 def _multimodality(
     ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int, evaluator: Any
 ) -> float:
-    k, m = int(ev.multimodality_samples), min(int(ev.multimodality_clips), len(truth))
-    jobs = [(i, s) for i in range(m) for s in range(k)]
-
-    def generate(indices: list[int]) -> list[np.ndarray]:
-        caps = [clip_caption(truth[jobs[j][0]]) for j in indices]
-        seeds = [seed * 100_003 + 10_007 * (1 + jobs[j][1]) + jobs[j][0] for j in indices]
-        return model.text_to_motion(caps, [ev.seconds] * len(caps), seeds)
-
-    with ctx.timed("sample multimodality"):
-        res = map_gathered(
-            ctx.accelerator, list(range(len(jobs))), generate, batch_size=ev.batch_size, desc="mm"
-        )
+    jobs, res = repeated_samples(ctx, model.text_to_motion, [clip_caption(c) for c in truth], ev, seed)
+    k = int(ev.multimodality_samples)
     emb = evaluator.embed_motions([encode_pose(r) for r in res])
-    return embedding_multimodality([emb[i * k : (i + 1) * k] for i in range(m)])
+    return embedding_multimodality([emb[i * k : (i + 1) * k] for i in range(len(jobs) // k)])
 
 
 def _scores(text: np.ndarray, motion: dict[str, np.ndarray], ev: Any) -> Scores:
