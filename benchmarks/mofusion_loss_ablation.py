@@ -6,7 +6,8 @@ each other, clip by clip on the same evaluation clips and pooled over seeds
 column with per-clip values. Rows #2–#4 share the generation length (the paper's 20 s), so their
 differences isolate the training objective.
 
-    python benchmarks/mofusion_loss_ablation.py outputs/mofusion_supp_table1/results.json [--pairs #3:#2 #4:#3 #4:#2]
+    python benchmarks/mofusion_loss_ablation.py OUT/mofusion_supp_table1/results.json
+        [--pairs #3:#2 #4:#3 #4:#2]
 
 Prints one line per pair and column: the difference (first − second) with its 95 % interval and
 which row is better when the interval excludes 0.
