@@ -84,10 +84,20 @@ MOMU_RECIPES = (
 )
 """Every MoMu-Diffusion recipe, in the order `reproduce` runs them (Tables 5–6 reuse Table 2's model)."""
 
+MOFUSION_RECIPES = (
+    "mofusion_table1",
+    "mofusion_supp_table1",
+    "mofusion_supp_table2",
+    "mofusion_table2",
+)
+"""Every MoFusion recipe, in run order (supp. Table 2 reuses supp. Table 1's models)."""
+
+RECIPES = MOMU_RECIPES + MOFUSION_RECIPES
+
 
 @nox.session(python=PYTHON, default=False)
 def reproduce(session: nox.Session) -> None:
-    """Regenerate reproductions/<table>/ for every MoMu recipe at the `cpu` preset on synthetic data.
+    """Regenerate reproductions/<table>/ of every MoMu / MoFusion recipe (`cpu` preset, synthetic data).
 
     Non-default (hours on a 2-core CPU). `nox -s reproduce -- momu_table2 momu_table5` runs a subset.
     Every recipe writes into one work folder (outputs/reproduce/, git-ignored), so shared
@@ -97,12 +107,12 @@ def reproduce(session: nox.Session) -> None:
     from pathlib import Path
 
     _install(session, "render")
-    unknown = [r for r in session.posargs if r not in MOMU_RECIPES]
+    unknown = [r for r in session.posargs if r not in RECIPES]
     if unknown:
-        session.error(f"unknown recipe(s) {', '.join(unknown)}; valid: {', '.join(MOMU_RECIPES)}")
+        session.error(f"unknown recipe(s) {', '.join(unknown)}; valid: {', '.join(RECIPES)}")
     work = Path("outputs") / "reproduce"
     env = {"WANDB_MODE": "disabled", "HF_HUB_OFFLINE": "1", "PYTHONHASHSEED": "0"}
-    for table in session.posargs or MOMU_RECIPES:
+    for table in session.posargs or RECIPES:
         args = [f"recipes/{table}.py", "--preset", "cpu", "--data", "synth", "--out", str(work)]
         args += ["--tracker", "none"]
         session.run("python", *args, env=env)

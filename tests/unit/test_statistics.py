@@ -140,3 +140,49 @@ def test_scores_round_trip_json_and_reject_unknown_variants() -> None:
     np.testing.assert_array_equal(back.clips["f1"][ROW], s.clips["f1"][ROW])
     with pytest.raises(ValueError, match="unknown comparison variant 'shufled'"):
         s.add_clips("f1", "shufled", np.zeros((2, 1)))
+
+
+def _diversity(cell: float, gt: float, shuffled: float) -> Scores:
+    s = Scores(metrics={"div": cell})
+    s.add_seed_value("div", "ground truth", gt)
+    s.add_seed_value("div", "shuffled", shuffled)
+    return s
+
+
+def test_closer_to_reference_columns_compare_distances() -> None:
+    """MoFusion Table 2's "Diversity →": a cell is better the closer it is to ground truth's."""
+    col = Column("div", "Diversity→", False, closer_to="ground truth")
+    # below ground truth by ~1, a far-off comparison (shuffled) ~4 away: closer, so better
+    near = summarise_seeds(
+        [_diversity(8.9, 10.0, 6.0), _diversity(9.1, 10.1, 6.1), _diversity(9.0, 9.9, 5.9)]
+    )
+    out = compare_row(near, [col])["div"]
+    assert (
+        out["ground truth"]["estimate"] == pytest.approx(-1.0) and out["ground truth"]["verdict"] == "worse"
+    )
+    assert out["shuffled"]["estimate"] == pytest.approx(1.0 - 4.0) and out["shuffled"]["verdict"] == "better"
+    # a cell above the reference by as much as the other is below: |+2| vs |−2|, not distinguishable
+    far = summarise_seeds(
+        [_diversity(12.0, 10.0, 8.0), _diversity(12.1, 10.1, 8.1), _diversity(11.9, 9.9, 7.85)]
+    )
+    rec = compare_row(far, [col])["div"]["shuffled"]
+    assert rec["verdict"] == "not distinguishable"
+    # no higher-is-better reading: a cell far above the reference is worse than one just below it
+    high = summarise_seeds(
+        [_diversity(20.0, 10.0, 9.0), _diversity(21.0, 10.1, 9.1), _diversity(20.5, 9.9, 8.9)]
+    )
+    assert compare_row(high, [col])["div"]["shuffled"]["verdict"] == "worse"
+    # at the reference within noise: not distinguishable from it
+    same = summarise_seeds(
+        [_diversity(10.2, 10.0, 5.0), _diversity(9.8, 10.0, 5.0), _diversity(10.0, 10.0, 5.0)]
+    )
+    assert compare_row(same, [col])["div"]["ground truth"]["verdict"] == "not distinguishable"
+    rows = [{"id": r, "paper": {"div": p}, **near} for r, p in (("#1", 8.0), ("#2", 9.0))]
+    assert orderings(rows, [col]) == {}  # no ordering without the paper's reference per pair
+
+
+def test_closer_to_reference_direction_is_printed() -> None:
+    from momu.engine.table_report import _direction
+
+    assert _direction({"higher_is_better": False, "closer_to": "ground truth"}) == "closer to ground truth"
+    assert _direction({"higher_is_better": True}) == "higher"

@@ -89,6 +89,7 @@ class Attention(nn.Module):
         self.to_k = nn.Linear(context_dim, dim)
         self.to_v = nn.Linear(context_dim, dim)
         self.to_out = nn.Linear(dim, dim)
+        self.recorder: list[Tensor] | None = None  # set by an attention recorder (MoFusion Fig. 4)
 
     def forward(self, x: Tensor, context: Tensor | None = None, key_mask: Tensor | None = None) -> Tensor:
         """``x (B, Lq, dim)``, ``context (B, Lk, context_dim)`` (default ``x``), ``key_mask (B, Lk)`` bool.
@@ -103,9 +104,17 @@ class Attention(nn.Module):
         k = self.to_k(context).view(b, lk, self.heads, -1).transpose(1, 2)
         v = self.to_v(context).view(b, lk, self.heads, -1).transpose(1, 2)
         attn_mask = None if key_mask is None else key_mask[:, None, None, :]  # (B, 1, 1, Lk)
-        out = F.scaled_dot_product_attention(
-            q, k, v, attn_mask=attn_mask, dropout_p=self.dropout if self.training else 0.0
-        )
+        if self.recorder is not None:  # explicit softmax(QKᵀ/√d) (Eq. 9) so the weights can be kept
+            scores = q @ k.transpose(-1, -2) / math.sqrt(q.shape[-1])  # (B, H, Lq, Lk)
+            if attn_mask is not None:
+                scores = scores.masked_fill(~attn_mask, float("-inf"))
+            weights = scores.softmax(dim=-1)
+            self.recorder.append(weights.detach())
+            out = weights @ v
+        else:
+            out = F.scaled_dot_product_attention(
+                q, k, v, attn_mask=attn_mask, dropout_p=self.dropout if self.training else 0.0
+            )
         return self.to_out(out.transpose(1, 2).reshape(b, lq, -1))
 
 

@@ -11,10 +11,18 @@ The network is fully convolutional: any length works; lengths not divisible by `
 zero-padded internally and cropped. Every layer re-masks padded frames (masked GroupNorm,
 attention key masks, zeroed padded features), so padding never changes the valid output.
 A dropped condition (classifier-free guidance) is one learned null context token.
+
+Options for MoFusion's two conditions (§3.3): ``cond_proj: linear`` ("a linear layer to project the
+input Mel spectrogram") or ``mlp`` ("an MLP that maps the transformer embedding onto c", text);
+``context_positions: false`` stops stamping the context with motion-time positions (right for mel
+frames, which are time; wrong for text tokens). :func:`record_attention` returns the per-level
+cross-attention weights (MoFusion Fig. 4) without changing the outputs.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import torch
@@ -22,6 +30,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from momu.backbones.blocks import (
+    Attention,
     MaskedGroupNorm,
     TimestepEmbedder,
     TransformerBlock,
@@ -34,7 +43,9 @@ from momu.backbones.blocks import (
 )
 from momu.registry import BACKBONES
 
-__all__ = ["UNet1DConfig", "UNet1D", "build_unet1d"]
+__all__ = ["UNet1DConfig", "UNet1D", "build_unet1d", "record_attention", "COND_PROJECTIONS"]
+
+COND_PROJECTIONS = ("linear", "mlp")
 
 
 @dataclass
@@ -61,6 +72,11 @@ class UNet1DConfig:
             ``(k + ½)·L_x/L_c − ½`` — so cross-attention can align the two sequences in time
             (the paper does not say how its attention knows time; without this it can only
             match content).
+        context_positions: with ``attention_positions``, also add the time encodings to the
+            context (a time-aligned condition such as a mel); ``False`` for token contexts (text),
+            whose positions are not motion time.
+        cond_proj: projection of the condition onto the context width: ``linear`` (MoFusion §3.3,
+            music) or ``mlp`` (Linear–GELU–Linear, §3.3 text).
         dropout: dropout in residual and transformer blocks.
     """
 
@@ -77,6 +93,8 @@ class UNet1DConfig:
     mlp_ratio: float = 4.0
     attention: bool = True
     attention_positions: bool = True
+    context_positions: bool = True
+    cond_proj: str = "linear"
     dropout: float = 0.0
 
 
@@ -162,11 +180,18 @@ class UNet1D(nn.Module):
         temb = cfg.base_channels * 4
         self.time_embed = TimestepEmbedder(temb, cfg.time_freq_dim)
         ctx: int | None = None
-        self.cond_proj: nn.Linear | None = None
+        self.cond_proj: nn.Module | None = None
         self.null_cond: nn.Parameter | None = None
+        if cfg.cond_proj not in COND_PROJECTIONS:
+            raise ValueError(f"unet1d.cond_proj {cfg.cond_proj!r} not one of {COND_PROJECTIONS}")
         if cfg.cond_channels > 0:
             ctx = cfg.cross_attention_dim
-            self.cond_proj = nn.Linear(cfg.cond_channels, ctx)
+            if cfg.cond_proj == "linear":
+                self.cond_proj = nn.Linear(cfg.cond_channels, ctx)
+            else:
+                self.cond_proj = nn.Sequential(
+                    nn.Linear(cfg.cond_channels, ctx), nn.GELU(), nn.Linear(ctx, ctx)
+                )
             self.null_cond = nn.Parameter(torch.randn(ctx) * scaled_init_std(ctx))
 
         self.conv_in = nn.Conv1d(cfg.in_channels, widths[0], cfg.kernel_size, padding=cfg.kernel_size // 2)
@@ -206,7 +231,7 @@ class UNet1D(nn.Module):
         scale = 2**level
         q_t = (torch.arange(frames, device=ref.device, dtype=torch.float32) + 0.5) * scale - 0.5
         q_pos = sinusoidal_embedding(q_t, width).to(ref.dtype)[None].expand(b, -1, -1)
-        if ctx is None or ctx_mask is None:
+        if ctx is None or ctx_mask is None or not self.cfg.context_positions:
             return q_pos, None
         len_c = ctx_mask.sum(dim=1).clamp_min(1)
         k = torch.arange(ctx.shape[1], device=ref.device, dtype=torch.float32)[None, :]
@@ -267,6 +292,37 @@ class UNet1D(nn.Module):
         h = self.conv_out(F.silu(self.norm_out(h, mask)))
         out = h[:, :, :length].transpose(1, 2)  # crop, (B, C, T) -> (B, T, C)
         return out * x_mask[..., None].to(out.dtype)
+
+
+def _level_names(net: UNet1D) -> list[tuple[str, nn.Module]]:
+    levels: list[tuple[str, nn.Module]] = [(f"down{i}", lvl) for i, lvl in enumerate(net.down)]
+    levels.append(("mid", net.mid))
+    levels += [(f"up{i}", lvl) for i, lvl in enumerate(net.up)]
+    return levels
+
+
+@contextmanager
+def record_attention(net: UNet1D) -> Iterator[dict[str, list[Tensor]]]:
+    """Record the attention weights of every transformer block of ``net`` (MoFusion Fig. 4).
+
+    Inside the block, each forward call appends its ``(B, heads, L_q, L_k)`` softmax weights to
+    ``maps[level]`` (levels ``down0 … mid … upN``, query lengths ``N/2^l``; one entry per block and
+    call). The recorded path computes Eq. 9 explicitly instead of through SDPA; its outputs equal the
+    SDPA outputs up to float rounding. Use in eval mode (the explicit path applies no dropout).
+    """
+    maps: dict[str, list[Tensor]] = {}
+    modules: list[Attention] = []
+    for name, level in _level_names(net):
+        for module in level.modules():
+            if isinstance(module, Attention):
+                sink = maps.setdefault(name, [])
+                module.recorder = sink
+                modules.append(module)
+    try:
+        yield maps
+    finally:
+        for module in modules:
+            module.recorder = None
 
 
 @BACKBONES.register("unet1d", config=UNet1DConfig)

@@ -13,7 +13,7 @@ from typing import Any, Optional
 
 from momu.engine.trainer import TrainConfig
 
-__all__ = ["RecipeConfig", "RealDataConfig", "SubsetConfig"]
+__all__ = ["RecipeConfig", "RealDataConfig", "SubsetConfig", "LengthsConfig"]
 
 
 @dataclass
@@ -41,6 +41,14 @@ class SubsetConfig:
 
 
 @dataclass
+class LengthsConfig:
+    """``lengths``: MoFusion's two generation lengths in seconds (Table 1 and supp. Tables 1–2)."""
+
+    short: float = 10.0
+    long: float = 20.0
+
+
+@dataclass
 class RecipeConfig:
     """Top-level keys of a recipe config (``recipes/configs/momu.yaml``, ``momu_tables.yaml``).
 
@@ -52,6 +60,7 @@ class RecipeConfig:
         real_data, subsets: Tables 2–6 (:class:`RealDataConfig`, :class:`SubsetConfig`).
         learnable_encoder, learnable_train, learnable_frames_per_latent: Tables 3–4's learnable
             motion encoder, its training stage and the motion frames it sees per latent frame.
+        lengths: MoFusion's generation lengths (:class:`LengthsConfig`).
     """
 
     seed: int = 0
@@ -63,3 +72,4 @@ class RecipeConfig:
     learnable_encoder: Any = None
     learnable_train: Optional[TrainConfig] = None  # noqa: UP045
     learnable_frames_per_latent: int = 1
+    lengths: Optional[LengthsConfig] = None  # noqa: UP045

@@ -128,6 +128,10 @@ class RunContext:
             finally:
                 fcntl.flock(handle, fcntl.LOCK_UN)
 
+    def stage_folder_name(self, name: str, key: Mapping[str, Any], cfg: TrainConfig) -> str:
+        """The folder (under :attr:`parts_dir`) that :meth:`stage` trains or reuses for this key."""
+        return f"{name}-{stage_key_hash(stage_identity(key, self.accelerator, cfg))}"
+
     def stage(
         self,
         name: str,
@@ -144,7 +148,7 @@ class RunContext:
         Returns the trained (unwrapped) model in eval mode.
         """
         identity = stage_identity(key, self.accelerator, cfg)
-        folder = self.parts_dir / f"{name}-{stage_key_hash(identity)}"
+        folder = self.parts_dir / self.stage_folder_name(name, key, cfg)
         with self.lock(folder.name):
             return self._stage(name, identity, folder, model, dataset, loss_fn, cfg, collate_fn)
 

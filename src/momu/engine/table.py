@@ -72,12 +72,17 @@ class Column:
         higher_is_better: the column's direction.
         reducer: how the cell follows from per-clip components (``mean``, or ``f1``: LORIS F1 of the
             mean BCS and BHS; :data:`momu.engine.statistics.REDUCERS`), used by the paired comparisons.
+        closer_to: a comparison variant (e.g. ``"ground truth"``) whose seed-level value is the
+            column's reference: the cell is better the *closer* it is to it (MoFusion Table 2's
+            "Diversity →"); ``higher_is_better`` is then ignored
+            (:func:`momu.engine.table_results.compare_row`).
     """
 
     key: str
     label: str
     higher_is_better: bool
     reducer: str = "mean"
+    closer_to: str | None = None
 
 
 @dataclass(frozen=True)
@@ -315,7 +320,13 @@ def _seeds(spec: TableSpec, args: TableArgs, first: DictConfig) -> list[int]:
 
 def _columns_json(spec: TableSpec) -> list[dict[str, Any]]:
     return [
-        {"key": c.key, "label": c.label, "higher_is_better": c.higher_is_better, "reducer": c.reducer}
+        {
+            "key": c.key,
+            "label": c.label,
+            "higher_is_better": c.higher_is_better,
+            "reducer": c.reducer,
+            "closer_to": c.closer_to,
+        }
         for c in spec.columns
     ]
 

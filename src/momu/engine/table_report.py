@@ -146,6 +146,8 @@ def _table(result: Mapping[str, Any]) -> list[str]:
 
 
 def _direction(col: Mapping[str, Any]) -> str:
+    if col.get("closer_to"):
+        return f"closer to {col['closer_to']}"
     return "higher" if col["higher_is_better"] else "lower"
 
 

@@ -34,6 +34,8 @@ class ColumnLike(Protocol):
     def higher_is_better(self) -> bool: ...
     @property
     def reducer(self) -> str: ...
+    @property
+    def closer_to(self) -> str | None: ...
 
 
 def summarise_seeds(per_seed: Sequence[Scores]) -> dict[str, Any]:
@@ -90,10 +92,16 @@ def compare_row(
 
     Per-clip variants: the row's ``(S, N, K)`` components against the variant's on the same clips
     (:func:`~momu.engine.statistics.paired_bootstrap`). Seed-level variants: per-seed cells against
-    the variant's per-seed values (:func:`~momu.engine.statistics.paired_seed_interval`).
+    the variant's per-seed values (:func:`~momu.engine.statistics.paired_seed_interval`). A column
+    with ``closer_to`` is compared by distances to that reference (:func:`_compare_closer`).
     """
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for col in columns:
+        if col.closer_to:
+            closer = _compare_closer(summary, col.key, col.closer_to)
+            if closer:
+                out[col.key] = closer
+            continue
         clips = summary["per_clip"].get(col.key, {})
         row = clips.get(ROW)
         for variant, values in clips.items():
@@ -113,6 +121,36 @@ def compare_row(
     return out
 
 
+def _compare_closer(summary: Mapping[str, Any], key: str, reference: str) -> dict[str, dict[str, Any]]:
+    """Comparisons of a "closer to ``reference`` is better" column (seed-level values only).
+
+    Against the reference itself: the per-seed difference ``cell − reference`` ("worse" when its
+    interval excludes 0, i.e. distinguishably away from the reference). Against another variant
+    ``v``: the per-seed ``|cell − ref| − |v − ref|``, lower is better.
+    """
+    values = summary["seed_values"].get(key, {})
+    ref = values.get(reference)
+    cells = [s.get(key) for s in summary["per_seed"]]
+    if ref is None or any(c is None for c in cells) or len(ref) != len(cells):
+        return {}
+    out: dict[str, dict[str, Any]] = {}
+    diffs = [c - r for c, r in zip(cells, ref)]  # type: ignore[operator]
+    interval = t_interval(diffs)
+    rec = _record(interval, True, diffs)
+    rec["verdict"] = "worse" if verdict(interval, True) != "not distinguishable" else "not distinguishable"
+    out[reference] = {**rec, "method": f"paired {interval.method}"}
+    for variant, other in values.items():
+        if variant == reference or len(other) != len(cells):
+            continue
+        d = [abs(c - r) - abs(o - r) for c, r, o in zip(cells, ref, other)]  # type: ignore[operator]
+        iv = t_interval(d)
+        out[variant] = {
+            **_record(iv, False, d),
+            "method": f"|cell − {reference}| − |{variant} − {reference}|, {iv.method}",
+        }
+    return out
+
+
 def outcome_phrase(variant: str, outcome: str) -> str:
     """The words of a verdict: ``"beats shuffled"``, ``"follows its condition"``, …"""
     v = VARIANTS[variant]
@@ -124,13 +162,16 @@ def orderings(
 ) -> dict[str, dict[str, Any]]:
     """Per column: which pairs of our rows differ distinguishably, and whether they order as in the paper.
 
-    Only pairs where both rows have a paper cell (and the paper's cells differ) count. A pair is
+    Only pairs where both rows have a paper cell (and the paper's cells differ) count; columns with
+    ``closer_to`` have no ordering (it would need the paper's reference value for the pair). A pair is
     *distinguishable* when the interval of the difference of our cells excludes 0 (paired per clip
     when both rows have per-clip components on the same clips, else per seed); the agreement count
     is over distinguishable pairs only.
     """
     out: dict[str, dict[str, Any]] = {}
     for col in columns:
+        if col.closer_to:
+            continue  # the paper's reference value per pair is not known here: no ordering
         cand = [r for r in rows if r["paper"].get(col.key) is not None and col.key in r["metrics"]]
         pairs = []
         for i, a in enumerate(cand):

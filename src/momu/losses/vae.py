@@ -16,7 +16,8 @@ Velocity term (``velocity_weight``, momu's option, 0 in the paper preset): the s
 differences along the time axis, for branches whose caller names that axis (the motion VAE, stage 2).
 Position errors barely grow when a decoder smooths a sharp start of a movement over a few frames,
 but that smoothing erases the kinematic beats (MoMu Eq. 2 fires on sudden changes of velocity);
-the velocity error does grow. MoFusion's kinematic losses (§3.4) penalise velocities the same way.
+the velocity error does grow. (MoFusion's kinematic losses, §3.2, constrain bone lengths and
+x̂₀, not velocities.)
 """
 
 from __future__ import annotations

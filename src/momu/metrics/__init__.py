@@ -5,7 +5,10 @@ METRICS.md): music and motion beats, BAS, D2M beat coverage/hit, LORIS beat scor
 beat scores, EDGE's PFC, HarmoGAN's harmony score and hit rate.
 """
 
-from momu.metrics import motion_metrics  # noqa: F401  (registers fid_k, fid_g, div_k, div_g, multimodality)
+from momu.metrics import (
+    motion_metrics,  # noqa: F401  (registers fid_k, fid_g, div_k, div_g, multimodality)
+    text_motion,  # noqa: F401  (registers r_precision, mm_dist, text_diversity, text_multimodality)
+)
 from momu.metrics._checks import EmptyBeatsError
 from momu.metrics.beat_align import bas, bas_dataset, beat_align_score
 from momu.metrics.beat_coverage import beat_coverage_dataset, beat_coverage_scores, select_aligned

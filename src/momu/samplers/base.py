@@ -148,7 +148,8 @@ def guided_eps(
 
     The conditional and unconditional passes run as ONE batched forward of ``2B`` items, the
     second half with ``drop_cond=True`` (the learned null embedding). Without a condition (or for
-    an unconditional backbone) it is the plain unconditional ε.
+    an unconditional backbone) it is the plain unconditional ε; at ``s = 1`` it is the conditional
+    ε alone, computed in one pass (the unconditional half would cancel).
 
     Args:
         x: ``(B, T, C)`` noisy sequence; ``t``: ``(B,)`` timesteps; ``cond``: ``(B, Tc, Cc)``.
@@ -159,6 +160,8 @@ def guided_eps(
         if cond is not None:
             raise ValueError("cond: given to an unconditional backbone (cond_channels=0)")
         return backbone(x, t, None, x_mask=x_mask)
+    if scale == 1.0:  # ε(∅) + 1·(ε(c) − ε(∅)) = ε(c): one conditional pass (MoFusion uses no CFG)
+        return backbone(x, t, cond, x_mask=x_mask, cond_mask=cond_mask)
     drop = torch.cat([torch.zeros(b, dtype=torch.bool), torch.ones(b, dtype=torch.bool)]).to(x.device)
     out = backbone(
         torch.cat([x, x]),

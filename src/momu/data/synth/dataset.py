@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from momu.data.synth.captions import caption, move_records
 from momu.data.synth.motion import (
     CameraConfig,
     beat_phase,
@@ -193,7 +194,10 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
     ``style``, and ``meta`` holding (seconds) ``beat_times`` / ``downbeat_times`` (the music's beat
     grid, continuing through breaks), ``onset_times`` (the beats that sound an attack),
     ``break_times`` (``[start, end]`` of each break), ``motion_beat_times`` (the jittered beats on
-    which the dancer reaches a key pose), plus ``bpm``, ``beats_per_bar``, ``split`` and ``index``.
+    which the dancer reaches a key pose), ``moves`` (the named moves danced, with their times,
+    mirroring and turn: :func:`momu.data.synth.captions.move_records`), plus ``bpm``,
+    ``beats_per_bar``, ``split`` and ``index``; ``text`` holds the clip's template caption
+    (:func:`momu.data.synth.captions.caption`, the synthetic stand-in for HumanML3D's texts).
     """
     if index < 0:
         raise IndexError(f"clip index must be >= 0, got {index}")
@@ -226,8 +230,14 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
     keyed = ~in_break | hit  # beats on which the dancer reaches a key pose
     jitter = np.clip(rng.normal(0.0, cfg.phase_jitter, k.size), -0.3 * period, 0.3 * period)
     motion_beats = first_beat + k * period + jitter
+    drawn: list[dict[str, Any]] = []
     poses, root = choose_keys(
-        style, int(keyed.sum()), rng, amplitude_range=cfg.amplitude_range, radius=cfg.trajectory_radius
+        style,
+        int(keyed.sum()),
+        rng,
+        amplitude_range=cfg.amplitude_range,
+        radius=cfg.trajectory_radius,
+        moves_out=drawn,
     )
     times = np.arange(num_frames) / fps
     phase = beat_phase(times, motion_beats)
@@ -283,6 +293,7 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
         "onset_times": [float(x) for x in grid["beats"][sounding]],
         "break_times": breaks,
         "motion_beat_times": [float(x) for x in motion_beats[inside]],
+        "moves": move_records(drawn, motion_beats[keyed], duration),
         "source": "synth_dance",
     }
     return Clip(
@@ -294,6 +305,7 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
         skeleton=skeleton.name,
         style=style.name,
         trajectory=trajectory,
+        text=[caption(meta["moves"], style.name)],
         meta=meta,
     )
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -94,8 +95,14 @@ def choose_keys(
     *,
     amplitude_range: Sequence[float] = (0.75, 1.25),
     radius: float = 1.0,
+    moves_out: list[dict[str, Any]] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Key poses for ``num_keys`` consecutive beats.
+
+    With ``moves_out`` given, one record per drawn move is appended to it: ``name``, ``mirrored``
+    (left/right swapped), ``first_key`` and ``num_keys`` (the key indices it covers, cut at
+    ``num_keys``) and ``turn`` (its summed yaw increments in radians, after mirroring; positive =
+    towards the dancer's left). The draws are the same with or without it.
 
     Returns:
         ``poses``: ``(num_keys, len(CONTROLS))`` control values in radians;
@@ -114,6 +121,7 @@ def choose_keys(
         move = style.moves[int(rng.choice(len(style.moves), p=weights))]
         amp = rng.uniform(lo, hi)
         mirrored = rng.random() < 0.5
+        first, turn = k, 0.0
         for key in move.keys:
             if k >= num_keys:
                 break
@@ -125,7 +133,18 @@ def choose_keys(
             poses[k] = neutral + amp * (target - neutral)
             incs[k] = [key.get(n, 0.0) for n in INCREMENTS]
             incs[k, 1:] *= amp
+            turn += incs[k, 0]
             k += 1
+        if moves_out is not None:
+            moves_out.append(
+                {
+                    "name": move.name,
+                    "mirrored": bool(mirrored),
+                    "first_key": first,
+                    "num_keys": k - first,
+                    "turn": float(turn),
+                }
+            )
     root = np.zeros((num_keys, 3))
     yaw, pos = 0.0, np.zeros(2)
     for i in range(num_keys):

@@ -1,0 +1,204 @@
+"""Evaluation of MoFusion's text→motion row (Table 2) and its calibration rows.
+
+Per evaluation clip *i* (the first ``num_clips`` test clips, cut to ``seconds``) the model generates
+from clip *i*'s caption (``row``) and — same sampling seed — from clip π(i)'s caption (*other
+condition*). A text–motion evaluator (:mod:`momu.metrics.text_motion`) is trained from scratch on
+the train split per seed (or loaded from ``evaluation.evaluator_checkpoint``) and scores, on its
+embeddings:
+
+* ``r_precision`` (↑) — T2M's top-k R-precision in batches of 32, per clip a 0/1 hit; *shuffled* =
+  clip π(i)'s ground-truth motion retrieved for clip i's caption, *ground truth* = clip i's own;
+* ``mm_dist`` (↓) — caption-to-motion embedding distance per clip;
+* ``diversity`` (→, closer to ground truth's is better: ``Column.closer_to``) — mean pairwise
+  distance of the generated motions' embeddings; this seed's ground-truth value is the reference;
+* ``multimodality`` (↑) — mean distance between K generations per caption.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import torch
+from omegaconf import DictConfig
+from torch.utils.data import Dataset
+
+from momu.config import build_component, to_container
+from momu.data.types import Clip
+from momu.engine.context import RunContext
+from momu.engine.evaluate import map_gathered
+from momu.engine.scores import ROW, Scores
+from momu.engine.trainer import TrainConfig
+from momu.features.mofusion_pose import encode_pose
+from momu.features.skeletons import get_skeleton
+from momu.methods.mofusion.data import (
+    clip_caption,
+    collate_text,
+    crop,
+    global_positions,
+    resample_motion,
+    split_indices,
+)
+from momu.methods.mofusion.evaluate import eval_clips, fit_mofusion, repeated_samples
+from momu.methods.momu.generation import eval_seeds
+from momu.methods.momu.scoring import derangement
+from momu.methods.momu.stages import stage_step
+from momu.metrics.text_motion import (
+    TextMotionEvaluator,
+    TextMotionEvaluatorConfig,
+    embedding_diversity,
+    embedding_multimodality,
+    mm_distances,
+    r_precision_hits,
+    vocab_from,
+)
+
+__all__ = ["evaluator_for", "evaluate_text", "calibrate_text"]
+
+OTHER = "other condition"
+_EVAL_TRAIN = {"steps": 400, "batch_size": 32, "lr": 1.0e-3, "warmup_steps": 20, "lr_schedule": "cosine"}
+
+
+class _Pairs(Dataset[dict[str, Any]]):
+    def __init__(self, poses: list[np.ndarray], texts: list[list[str]]) -> None:
+        self.poses = [torch.as_tensor(p, dtype=torch.float32) for p in poses]
+        self.texts = texts
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        pick = int(torch.randint(len(self.texts[i]), ()).item()) if len(self.texts[i]) > 1 else 0
+        return {"x": self.poses[i], "text": self.texts[i][pick]}
+
+
+def _poses(clips: list[Clip], fps: float) -> list[np.ndarray]:
+    return [encode_pose(resample_motion(global_positions(c), c.fps, fps)) for c in clips]
+
+
+def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> TextMotionEvaluator:
+    """The text–motion evaluator of this seed: the user's (``evaluator_checkpoint``) or one trained
+    from scratch on the train split (a cached stage ``t2m_evaluator-<hash>``)."""
+    ev = cfg.method.evaluation
+    if ev.evaluator_checkpoint:
+        return TextMotionEvaluator.load(ev.evaluator_checkpoint)
+    fps, seconds = float(cfg.method.fps), float(cfg.method.window_seconds)
+    clips = [dataset[i] for i in split_indices(dataset, "train", "text")]
+    clips = [crop(c, 0.0, min(seconds, c.duration)) for c in clips]
+    params = dict(to_container(ev.evaluator) or {})
+    train = TrainConfig(**{**_EVAL_TRAIN, **params.pop("train", {}), "seed": seed})
+    channels = 3 * get_skeleton(str(clips[0].skeleton)).num_joints
+    ecfg = TextMotionEvaluatorConfig(
+        **{**params, "channels": channels, "vocab": vocab_from([t for c in clips for t in c.text], 32)}
+    )
+    torch.manual_seed(seed)
+    model = TextMotionEvaluator(ecfg)
+    poses = _poses(clips, fps)
+    model.set_statistics(poses)
+    key = {
+        "stage": "t2m_evaluator",
+        "data": to_container(cfg.dataset),
+        "fps": fps,
+        "seconds": seconds,
+        "config": dataclasses.asdict(ecfg),
+        "train": dataclasses.asdict(train),
+        "seed": seed,
+    }
+    with ctx.timed("extractors"):
+        trained = ctx.stage(
+            "t2m_evaluator",
+            key,
+            model,
+            lambda: _Pairs(poses, [list(c.text) for c in clips]),
+            stage_step,
+            train,
+            collate_text,
+        )
+    assert isinstance(trained, TextMotionEvaluator)
+    return trained.to("cpu").eval()
+
+
+def _generate(
+    ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int
+) -> dict[str, list[np.ndarray]]:
+    perm = derangement(len(truth))
+    texts = [clip_caption(c) for c in truth]
+
+    def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
+        seeds = eval_seeds(seed, indices)
+        caps = [texts[j] for j in indices] + [texts[perm[j]] for j in indices]
+        out = model.text_to_motion(caps, [ev.seconds] * len(caps), seeds * 2)
+        n = len(indices)
+        return [{ROW: out[k], OTHER: out[n + k]} for k in range(n)]
+
+    with ctx.timed("sample text→motion"):
+        res = map_gathered(
+            ctx.accelerator, list(range(len(truth))), generate, batch_size=ev.batch_size, desc="t2m"
+        )
+    return {v: [r[v] for r in res] for v in (ROW, OTHER)}
+
+
+def _multimodality(
+    ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int, evaluator: Any
+) -> float:
+    jobs, res = repeated_samples(ctx, model.text_to_motion, [clip_caption(c) for c in truth], ev, seed)
+    k = int(ev.multimodality_samples)
+    emb = evaluator.embed_motions([encode_pose(r) for r in res])
+    return embedding_multimodality([emb[i * k : (i + 1) * k] for i in range(len(jobs) // k)])
+
+
+def _scores(text: np.ndarray, motion: dict[str, np.ndarray], ev: Any) -> Scores:
+    sc = Scores(metrics={})
+    for variant, emb in motion.items():
+        sc.add_clips(
+            "r_precision", variant, r_precision_hits(text, emb, batch=ev.r_precision_batch, top_k=ev.top_k)
+        )
+        sc.add_clips("mm_dist", variant, mm_distances(text, emb))
+    sc.metrics["r_precision"] = float(sc.clips["r_precision"][ROW].mean())
+    sc.metrics["mm_dist"] = float(sc.clips["mm_dist"][ROW].mean())
+    sc.metrics["diversity"] = embedding_diversity(motion[ROW])
+    return sc
+
+
+def evaluate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
+    """The Table 2 row for one seed: train (or reuse) model and evaluator, generate, score."""
+    method, model, dataset, folder = fit_mofusion(ctx, cfg, seed)
+    ev = method.cfg.evaluation
+    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text")
+    evaluator = evaluator_for(ctx, cfg, dataset, seed)
+    samples = _generate(ctx, model, truth, ev, seed)
+    with ctx.timed("metrics"):
+        text = evaluator.embed_texts([clip_caption(c) for c in truth])
+        gt = evaluator.embed_motions(_poses(truth, model.fps))
+        perm = derangement(len(truth))
+        emb = {
+            ROW: evaluator.embed_motions([encode_pose(m) for m in samples[ROW]]),
+            OTHER: evaluator.embed_motions([encode_pose(m) for m in samples[OTHER]]),
+            "shuffled": gt[perm],
+            "ground truth": gt,
+        }
+        scores = _scores(text, emb, ev)
+        scores.artifacts["model"] = folder
+        scores.add_seed_value("diversity", "ground truth", embedding_diversity(gt))
+        scores.add_seed_value("diversity", "shuffled", embedding_diversity(gt[perm]))
+        scores.metrics["r_precision_other_condition"] = float(scores.clips["r_precision"][OTHER].mean())
+        scores.metrics["multimodality"] = _multimodality(ctx, model, truth, ev, seed, evaluator)
+    return scores
+
+
+def calibrate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Scores]:
+    """Real text–motion pairs and pairs with the motions shuffled across clips, same evaluator."""
+    method = build_component(cfg.method, "methods")
+    dataset = build_component(cfg.dataset, "datasets")
+    ev = method.cfg.evaluation
+    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text")
+    evaluator = evaluator_for(ctx, cfg, dataset, seed)
+    with ctx.timed("metrics"):
+        text = evaluator.embed_texts([clip_caption(c) for c in truth])
+        gt = evaluator.embed_motions(_poses(truth, float(method.cfg.fps)))
+        perm = derangement(len(truth))
+        return {
+            "real text–motion pairs": _scores(text, {ROW: gt}, ev),
+            "text and motion shuffled": _scores(text, {ROW: gt[perm]}, ev),
+        }
