@@ -1,3 +1,12 @@
 """Built-in encoders; importing this package registers them in momu.registry.ENCODERS."""
 
-from momu.encoders import bicor_vae, directional_vector, discriminator, learnable_motion, mfcc, waveform  # noqa: F401
+from momu.encoders import (  # noqa: F401
+    bicor_vae,
+    directional_vector,
+    discriminator,
+    harmogan_discriminators,
+    harmogan_generator,
+    learnable_motion,
+    mfcc,
+    waveform,
+)
