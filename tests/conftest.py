@@ -9,6 +9,8 @@ import pytest
 import torch
 from hypothesis import HealthCheck, settings
 
+from tests.helpers.shared_data import shared_data_dir
+
 os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
@@ -23,7 +25,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 # small-tensor tests many times slower (nox runs two pytest workers on two cores).
 torch.set_num_threads(int(os.environ.get("MOMU_TEST_THREADS", "1")))
 
-SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+SHARED_DATA = shared_data_dir()  # ../shared/data beside the checkout (or the main checkout of a worktree)
 
 
 def _cuda_available() -> bool:

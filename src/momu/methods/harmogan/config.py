@@ -172,6 +172,7 @@ class HarmoGANConfig:
     mfcc: MfccConfig = field(default_factory=MfccConfig)
     meter: MeterConfig = field(default_factory=MeterConfig)
     kl_temperature: float = 0.1
+    stitch_frames: int = 4
     pretrain_weights: LossWeights = field(
         default_factory=lambda: LossWeights(kl=0.1, mse=1.0, feat=0.0, harmo=0.0, gan=0.0)
     )
@@ -185,6 +186,8 @@ def check_config(cfg: HarmoGANConfig) -> None:
     """Raise ``ValueError`` naming the first inconsistent field."""
     if cfg.fps <= 0 or cfg.kl_temperature <= 0:
         raise ValueError("method.fps and method.kl_temperature must be > 0")
+    if cfg.stitch_frames < 0:
+        raise ValueError(f"method.stitch_frames must be >= 0, got {cfg.stitch_frames}")
     if not 0.0 < cfg.test_fraction < 1.0:
         raise ValueError(f"method.test_fraction must be in (0, 1), got {cfg.test_fraction}")
     for name in ("pretrain_weights", "weights"):

@@ -8,8 +8,9 @@ nor the number of transition beats; momu's choices (config fields of :class:`Met
 
 * **Strong beats** (:func:`strong_weak`): the first beat is strong; beat ``i`` is strong iff
   ``s_i > (1 + strong_margin) · s_{i−1}`` (``strong_margin = 0``: the paper's rule).
-* **Groups**: a group runs from a strong beat to the beat before the next strong beat; its length
-  ``L`` is its number of beats.
+* **Groups**: a group runs from a strong beat that follows a weak one (or the first beat) to the beat
+  before the next such beat; its length ``L`` is its number of beats. A rising run of strong beats
+  therefore stays in one group.
 * **Mapping table** (:func:`segment_meters`; the four common meters of Acuff & Evridge [48]):
 
   | strong–weak combination | meter |
@@ -20,7 +21,6 @@ nor the number of transition beats; momu's choices (config fields of :class:`Met
   | ``1 0 0`` | 3/4 |
   | ``1 0 0 0`` | 4/4 |
   | ``1 0 0 0 0 0`` | 6/8 |
-  | ``1`` directly followed by ``1`` (a rising run) | joined to the next group |
   | 5 or more than 6 beats | split into 4/4 meters, the remainder as 3/4 or 2/4 (5 = 3/4 + 2/4) |
 
   Music with a single meter and music mixing meters are handled alike: every group is mapped on its
@@ -146,24 +146,11 @@ def segment_meters(saliency: np.ndarray, margin: float = 0.0) -> list[Meter]:
     """The meters of a beat sequence by the mapping table of the module docstring (beats in time order)."""
     labels = strong_weak(saliency, margin)
     s = np.asarray(saliency, dtype=np.float64).reshape(-1)
-    starts = list(np.flatnonzero(labels))
+    # a group starts at the first beat and at every strong beat after a weak one: a rising run of
+    # strong beats stays in one group, which starts at the run's first beat
+    starts = [i for i in range(labels.size) if i == 0 or (labels[i] == 1 and labels[i - 1] == 0)]
     bounds = [*starts, labels.size]
-    groups = [(bounds[i], bounds[i + 1] - bounds[i]) for i in range(len(starts))]
-    joined: list[tuple[int, int]] = []  # rising runs (groups of one beat) join the next group
-    carry: int | None = None
-    for first, length in groups:
-        if carry is not None:
-            first, length, carry = carry, length + (first - carry), None
-        if length == 1:
-            carry = first
-            continue
-        joined.append((first, length))
-    if carry is not None:  # the music ends on a rising run
-        if joined:
-            f, n = joined.pop()
-            joined.append((f, n + (labels.size - carry)))
-        else:
-            joined.append((carry, labels.size - carry))
+    joined = [(bounds[i], bounds[i + 1] - bounds[i]) for i in range(len(starts))]
     meters: list[Meter] = []
     i = 0
     while i < len(joined):
