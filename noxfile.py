@@ -84,10 +84,17 @@ MOMU_RECIPES = (
 )
 """Every MoMu-Diffusion recipe, in the order `reproduce` runs them (Tables 5–6 reuse Table 2's model)."""
 
+HARMOGAN_RECIPES = ("harmogan_table1", "harmogan_table2", "harmogan_fig12", "harmogan_fig9", "harmogan_fig11")
+"""Every HarmoGAN recipe, in the order `reproduce` runs them (all share <work>/harmogan_shared)."""
+HARMOGAN_DATA = os.environ.get("MOMU_DWM_ROOT", "../shared/data/dance_with_melody")
+"""The real Dance with Melody subset HarmoGAN's reproductions train on (`MOMU_DWM_ROOT` overrides)."""
+
 
 @nox.session(python=PYTHON, default=False)
 def reproduce(session: nox.Session) -> None:
-    """Regenerate reproductions/<table>/ for every MoMu recipe at the `cpu` preset on synthetic data.
+    """Regenerate reproductions/<table>/ for every MoMu recipe at the `cpu` preset on synthetic data, and
+    for every HarmoGAN recipe on the real Dance with Melody subset (`MOMU_DWM_ROOT`, default
+    ../shared/data/dance_with_melody).
 
     Non-default (hours on a 2-core CPU). `nox -s reproduce -- momu_table2 momu_table5` runs a subset.
     Every recipe writes into one work folder (outputs/reproduce/, git-ignored), so shared
@@ -97,13 +104,15 @@ def reproduce(session: nox.Session) -> None:
     from pathlib import Path
 
     _install(session, "render")
-    unknown = [r for r in session.posargs if r not in MOMU_RECIPES]
+    known = (*MOMU_RECIPES, *HARMOGAN_RECIPES)
+    unknown = [r for r in session.posargs if r not in known]
     if unknown:
-        session.error(f"unknown recipe(s) {', '.join(unknown)}; valid: {', '.join(MOMU_RECIPES)}")
+        session.error(f"unknown recipe(s) {', '.join(unknown)}; valid: {', '.join(known)}")
     work = Path("outputs") / "reproduce"
     env = {"WANDB_MODE": "disabled", "HF_HUB_OFFLINE": "1", "PYTHONHASHSEED": "0"}
-    for table in session.posargs or MOMU_RECIPES:
-        args = [f"recipes/{table}.py", "--preset", "cpu", "--data", "synth", "--out", str(work)]
+    for table in session.posargs or known:
+        data = HARMOGAN_DATA if table in HARMOGAN_RECIPES else "synth"  # HarmoGAN trains on the real subset
+        args = [f"recipes/{table}.py", "--preset", "cpu", "--data", data, "--out", str(work)]
         args += ["--tracker", "none"]
         session.run("python", *args, env=env)
         command = "python " + " ".join(args)

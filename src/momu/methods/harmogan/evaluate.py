@@ -173,10 +173,11 @@ def motion_values(
     * ``mse`` — mean squared error of the root-centred 3D positions (m²; Eq. 14's quantity);
     * ``cosine`` — mean over frames of ``1 − cos`` between the flattened generated and true poses;
     * ``bone_error`` — mean over bones of ``|mean length / the training data's mean length − 1|`` (%);
-    * ``foot_height`` — median over frames of the lowest foot point's height above the root (cm).
+    * ``foot_height`` — median over frames of the lowest foot point's height relative to the root (cm);
+    * ``foot_error`` — its absolute difference from the ground-truth clip's (cm).
     """
     bones = get_skeleton("dwm21").bones
-    out: dict[str, list[float]] = {"mse": [], "cosine": [], "bone_error": [], "foot_height": []}
+    out: dict[str, list[float]] = {"mse": [], "cosine": [], "bone_error": [], "foot_height": [], "foot_error": []}
     for gen, ref in zip(motions, truth):
         g, r = np.asarray(gen, np.float64), np.asarray(ref, np.float64)
         n = min(len(g), len(r))
@@ -187,7 +188,9 @@ def motion_values(
         out["cosine"].append(float(np.mean(1.0 - cos)))
         lengths = np.asarray(bone_lengths(g, bones)).mean(axis=0)
         out["bone_error"].append(100.0 * float(np.mean(np.abs(lengths / reference_bones - 1.0))))
-        out["foot_height"].append(100.0 * float(np.median(g[:, list(FEET), 1].min(axis=1))))
+        foot = 100.0 * float(np.median(g[:, list(FEET), 1].min(axis=1)))
+        out["foot_height"].append(foot)
+        out["foot_error"].append(abs(foot - 100.0 * float(np.median(r[:, list(FEET), 1].min(axis=1)))))
     return {k: np.asarray(v) for k, v in out.items()}
 
 

@@ -3,7 +3,7 @@
 Every HarmoGAN table prints what the harmony score gives for ground truth under changes a viewer would
 notice (issue 15's calibration rows), with the same metric code at the paper's 6-s clip length:
 
-* :func:`shifted_audio` — the clip's audio taken half a beat earlier (phase shift, tempo kept);
+* :func:`shifted_audio` — the clip's audio taken half a beat earlier or later (phase shift, tempo kept);
 * :func:`static_pose` — the clip's mean pose held still plus Gaussian noise of 0.1 mm;
 * :func:`time_warped` — the dance played ``factor`` × faster (×1.25) or slower (×0.8) against
   unchanged music, by linear interpolation of the whole dance from the clip's start;
@@ -34,13 +34,16 @@ def beat_period(dance: Dance) -> float:
 
 
 def shifted_audio(dance: Dance, window: Window, seconds: float) -> np.ndarray:
-    """The window's audio taken ``seconds`` earlier (or later, for a negative value), same length.
+    """The window's audio taken ``seconds`` earlier — or later where the song starts too soon (a half-beat
+    shift moves the phase by half a beat either way) — with the same length.
 
     Raises:
-        ValueError: the shifted window leaves the song.
+        ValueError: the song is too short for the shift either way.
     """
     a0, a1 = dance.samples(window.start, window.start + window.frames)
     shift = int(round(seconds * dance.sample_rate))
+    if a0 - shift < 0:
+        shift = -shift
     if a0 - shift < 0 or a1 - shift > len(dance.audio):
         raise ValueError(f"dance {dance.id!r}: a shift of {seconds:.3f} s leaves the song")
     return dance.audio[a0 - shift : a1 - shift]

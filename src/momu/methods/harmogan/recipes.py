@@ -228,7 +228,7 @@ def fig9_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
             Column("cosine", "cosine distance↓", False),
             Column("fid", "pose FD↓", False),
             Column("bone_error", "bone-length error %↓", False),
-            Column("foot_height", "foot height (cm)", False),
+            Column("foot_error", "foot-height error (cm)↓", False),
         ],
         rows=[
             Row("gan", "L_gan only (no L_feat, no L_harmo)", _GAN_ONLY),
@@ -248,8 +248,10 @@ def fig9_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
             "pose FD: Fréchet distance of the per-frame root-centred poses (63-d) of the generated vs the "
             "ground-truth held-out windows (a stand-in for FID on rendered frames); its *ground truth* value "
             "is the training frames vs the held-out frames.",
-            "bone-length error: mean over bones of |mean length / the training data's mean − 1|; foot "
-            "height: median lowest heel/toe height relative to the root. Compare with the ground-truth row.",
+            "bone-length error: mean over bones of |mean length / the training data's mean − 1| per clip; "
+            "foot-height error: |median lowest heel/toe height relative to the root − the ground-truth clip's| "
+            "(`foot_height` itself is in results.json). The shuffled row shows the data's own spread: another "
+            "real clip's motion, judged against this clip.",
         ),
     )
 
