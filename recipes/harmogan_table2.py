@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from momu.methods.harmogan.recipes import table2_spec, run_harmogan
+from momu.methods.harmogan.recipes import run_harmogan, table2_spec
 
 if __name__ == "__main__":
     sys.exit(run_harmogan(table2_spec(Path(__file__).resolve().parent / "configs" / "harmogan.yaml")))

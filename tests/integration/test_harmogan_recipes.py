@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import soundfile as sf
-
 from tests.helpers.shared_data import shared_data_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -77,13 +76,19 @@ def _ballroom(root: Path) -> Path:
         (root / folder).mkdir(parents=True)
         for i in range(2):
             clicks = (np.sin(2 * np.pi * 2.0 * t + i) > 0.995).astype(np.float32)
-            sf.write(str(root / folder / f"t{i}.wav"), clicks + 0.01 * rng.standard_normal(t.size).astype(np.float32), sr)
+            sf.write(
+                str(root / folder / f"t{i}.wav"),
+                clicks + 0.01 * rng.standard_normal(t.size).astype(np.float32),
+                sr,
+            )
     return root
 
 
 def test_table1_ballroom_columns_and_bad_input(tmp_path: Path) -> None:
     root = _ballroom(tmp_path / "Ballroom")
-    result = _result("harmogan_table1", tmp_path / "out", f"ballroom.root={root}", "--rows", "harmogan,cal-static,cal-fast")
+    result = _result(
+        "harmogan_table1", tmp_path / "out", f"ballroom.root={root}", "--rows", "harmogan,cal-static,cal-fast"
+    )
     cells = result["rows"][0]["metrics"]
     assert {"h_cha-cha", "h_rumba", "h_waltz"} <= set(cells) and "h_jive" not in cells
     assert "other condition" in result["rows"][0]["comparisons"]["h_waltz"]

@@ -33,8 +33,15 @@ from momu.registry import DATASETS, ENCODERS
 def dances():  # type: ignore[no-untyped-def]
     ds = DATASETS.build(
         "synth_dance",
-        {"num_clips": 2, "skeleton": "dwm21", "fps": 15.0, "root_centred": True, "min_seconds": 20.0,
-         "max_seconds": 20.0, "styles": ["hiphop", "ballet"]},
+        {
+            "num_clips": 2,
+            "skeleton": "dwm21",
+            "fps": 15.0,
+            "root_centred": True,
+            "min_seconds": 20.0,
+            "max_seconds": 20.0,
+            "styles": ["hiphop", "ballet"],
+        },
     )
     return prepare_dances(ds, 15.0, 0.3, MfccConfig())
 
@@ -46,7 +53,9 @@ def test_dances_split_in_time_and_features_align(dances) -> None:  # type: ignor
         assert d.mfcc.shape == (300, 20) and len(d.audio) == 300 * d.sample_rate // 15
     assert np.array_equal(project_2d(dances[0].motion), dances[0].motion[..., :2])
     with pytest.raises(ValueError, match="fps"):
-        prepare_dances(DATASETS.build("synth_dance", {"num_clips": 1, "skeleton": "dwm21"}), 15.0, 0.2, MfccConfig())
+        prepare_dances(
+            DATASETS.build("synth_dance", {"num_clips": 1, "skeleton": "dwm21"}), 15.0, 0.2, MfccConfig()
+        )
 
 
 def test_meter_units_come_from_the_training_part_only(dances) -> None:  # type: ignore[no-untyped-def]
@@ -85,7 +94,9 @@ def test_windows_and_perturbations(dances) -> None:  # type: ignore[no-untyped-d
     assert np.allclose(same, d.motion[210:255])
     rng = np.random.default_rng(0)
     still = static_pose(clip.motion, 1e-4, rng)  # type: ignore[arg-type]
-    assert np.abs(still - clip.motion.mean(0)).max() < 1e-3 and still.std(0).mean() == pytest.approx(1e-4, rel=0.2)  # type: ignore[union-attr]
+    assert np.abs(still - clip.motion.mean(0)).max() < 1e-3 and still.std(0).mean() == pytest.approx(
+        1e-4, rel=0.2
+    )  # type: ignore[union-attr]
     perm = chunk_permuted(clip.motion, 15, rng)  # type: ignore[arg-type]
     assert perm.shape == clip.motion.shape and not np.array_equal(perm[:15], clip.motion[:15])  # type: ignore[index]
 
@@ -126,7 +137,11 @@ def _ballroom(root: Path) -> Path:
     for folder, n in counts.items():
         (root / folder).mkdir(parents=True)
         for i in range(n):
-            sf.write(str(root / folder / f"t{i}.wav"), 0.1 * rng.standard_normal(int(13.0 * sr)).astype(np.float32), sr)
+            sf.write(
+                str(root / folder / f"t{i}.wav"),
+                0.1 * rng.standard_normal(int(13.0 * sr)).astype(np.float32),
+                sr,
+            )
     return root
 
 
@@ -139,7 +154,9 @@ def test_ballroom_columns_selection_and_clips(tmp_path: Path) -> None:
     chosen = select_tracks(list(ds.ids), 0.1, seed=0)
     columns = [ballroom_column(ds.ids[i].split("/")[0]) for i in chosen]
     assert columns.count("cha-cha") == 2 and columns.count("rumba") == 1 and columns.count("waltz") == 1
-    assert chosen == select_tracks(list(ds.ids), 0.1, seed=0) and chosen != select_tracks(list(ds.ids), 0.1, seed=1)
+    assert chosen == select_tracks(list(ds.ids), 0.1, seed=0) and chosen != select_tracks(
+        list(ds.ids), 0.1, seed=1
+    )
     clips = ballroom_test_clips(ds, 0.1, 6.0, seed=0)
     assert len(clips) == 2 * len(chosen)  # 13-s tracks: two 6-s clips each
     assert all(len(c.audio) == 6 * 8000 and c.style in ("cha-cha", "rumba", "waltz") for c in clips)  # type: ignore[arg-type]

@@ -103,8 +103,17 @@ def test_meters_on_synth_dance_start_on_music_beats() -> None:
     """On synth_dance the meter starts fall on the music's beats; which beat is strong follows the
     onset saliency, so downbeats are recovered only where the downbeat is the loudest onset
     (benchmarks/harmogan_meter_accuracy.py reports the accuracy per style)."""
-    ds = DATASETS.build("synth_dance", {"num_clips": 4, "skeleton": "dwm21", "fps": 15.0, "min_seconds": 8.0,
-                                        "max_seconds": 8.0, "styles": ["ballet", "hiphop"]})
+    ds = DATASETS.build(
+        "synth_dance",
+        {
+            "num_clips": 4,
+            "skeleton": "dwm21",
+            "fps": 15.0,
+            "min_seconds": 8.0,
+            "max_seconds": 8.0,
+            "styles": ["ballet", "hiphop"],
+        },
+    )
     for clip in ds:
         times, saliency = audio_beats(clip.audio, clip.sample_rate)
         beats = np.asarray(clip.meta["beat_times"])

@@ -53,9 +53,15 @@ def test_every_part_builds_from_its_default_config_and_backpropagates() -> None:
 def test_generator_noise_is_seeded_and_dropout_only_in_training() -> None:
     batch = _batch()
     gen = ENCODERS.build("harmogan_generator").eval()
-    a = gen(batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(1))
-    b = gen(batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(1))
-    c = gen(batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(2))
+    a = gen(
+        batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(1)
+    )
+    b = gen(
+        batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(1)
+    )
+    c = gen(
+        batch["mfcc"], batch["initial_poses"], batch["transition"], generator=torch.Generator().manual_seed(2)
+    )
     assert torch.equal(a.motion, b.motion) and not torch.equal(a.motion, c.motion)
     with pytest.raises(ValueError, match="expected V_f"):
         gen(batch["mfcc"], batch["initial_poses"][:, :-1], batch["transition"])
@@ -129,7 +135,12 @@ def test_paper_schedules_are_the_defaults() -> None:
     assert [round(f, 6) for _, f in lr_segments(cfg.pretrain)] == [1.0, 0.5, 0.1, 0.02, 0.01]
     assert [n for n, _ in lr_segments(cfg.pretrain)] == [50, 50, 50, 50, 25]
     adv = cfg.adversarial
-    assert (adv.epochs, adv.lr, adv.generator_weight_decay, adv.discriminator_weight_decay) == (45, 1e-4, 1e-4, 1e-3)
+    assert (adv.epochs, adv.lr, adv.generator_weight_decay, adv.discriminator_weight_decay) == (
+        45,
+        1e-4,
+        1e-4,
+        1e-3,
+    )
     factors = [f for _, f in lr_segments(adv)]
     assert len(factors) == 9 and factors[1] == pytest.approx(0.5) and factors[2] == pytest.approx(0.1)
     assert factors[-1] == pytest.approx(1e-4)  # ÷2 and ÷5 alternately: 1e-8 by epoch 40

@@ -57,7 +57,10 @@ def test_the_paper_yaml_pins_the_papers_numbers() -> None:
     assert (adv["epochs"], adv["batch_size"], adv["lr"], adv["decay_every"], adv["decay_factors"]) == (
         45, 10, 1e-4, 5, [0.5, 0.2],
     )  # fmt: skip
-    assert adv["cycle_factors"] and (adv["generator_weight_decay"], adv["discriminator_weight_decay"]) == (1e-4, 1e-3)
+    assert adv["cycle_factors"] and (adv["generator_weight_decay"], adv["discriminator_weight_decay"]) == (
+        1e-4,
+        1e-3,
+    )
     assert m["weights"] == {"kl": 1e-4, "mse": 1e-3, "feat": 1e-3, "harmo": 1.0, "gan": 1e-3}
     assert (m["pretrain_weights"]["kl"], m["pretrain_weights"]["mse"]) == (0.1, 1.0)
     h = m["harmony_loss"]

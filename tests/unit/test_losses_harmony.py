@@ -7,17 +7,19 @@ import pytest
 import torch
 from hypothesis import given
 from hypothesis import strategies as st
+from tests.helpers.shared_data import shared_data_dir
 
 from momu.losses.harmony import HarmonyLoss, HarmonyLossConfig, audio_targets, harmony_terms, pad_targets
 from momu.metrics.harmony import harmony, harmony_from_beats, motion_beats_harmogan
-from momu.registry import LOSSES, DATASETS
-from tests.helpers.shared_data import shared_data_dir
+from momu.registry import DATASETS, LOSSES
 
 HARD = HarmonyLossConfig(beat_temperature=0.0, mask_temperature=0.0)
 SR = 16000
 
 
-def _terms(motion: np.ndarray, fps: float, times: list[float], sal: list[float], cfg: HarmonyLossConfig = HARD):
+def _terms(
+    motion: np.ndarray, fps: float, times: list[float], sal: list[float], cfg: HarmonyLossConfig = HARD
+):
     t = torch.tensor([times], dtype=torch.float64)
     s = torch.tensor([sal], dtype=torch.float64)
     m = torch.ones_like(t, dtype=torch.bool)
@@ -40,7 +42,7 @@ def _check_equal(motion: np.ndarray, fps: float, times: list[float], sal: list[f
 
 def test_hard_limit_by_hand() -> None:
     # one joint moving 1, 3, 1, 0.5, 2, 2, 1 units per frame: j = 10, 30, 10, 5, 20, 20, 10 at 10 fps has a
-    # maximum at j[1] (frame 2), a minimum at j[3] (frame 4) and a plateau at j[4..5] that Eq. 3 does not count.
+    # maximum at j[1] (frame 2), a minimum at j[3] (frame 4) and a plateau at j[4..5] that Eq. 3 ignores.
     steps = np.array([1.0, 3.0, 1.0, 0.5, 2.0, 2.0, 1.0])
     x = np.concatenate([[0.0], np.cumsum(steps)])
     motion = np.zeros((len(x), 1, 3))
@@ -87,8 +89,10 @@ def _real_window() -> tuple[np.ndarray, np.ndarray, int] | None:
 
 
 def test_hard_limit_equals_metric_on_real_and_synthetic_pairs() -> None:
-    synth = DATASETS.build("synth_dance", {"num_clips": 2, "skeleton": "dwm21", "fps": 15.0, "min_seconds": 6.0,
-                                           "max_seconds": 6.0})
+    synth = DATASETS.build(
+        "synth_dance",
+        {"num_clips": 2, "skeleton": "dwm21", "fps": 15.0, "min_seconds": 6.0, "max_seconds": 6.0},
+    )
     pairs = [(c.motion, c.audio, c.sample_rate) for c in synth]
     real = _real_window()
     if real is not None:
@@ -110,7 +114,11 @@ def test_hard_limit_equals_metric_on_real_and_synthetic_pairs() -> None:
         errors = []
         for tau in (0.1, 0.01, 0.001):
             soft = harmony_terms(
-                torch.tensor(motion[None], dtype=torch.float64), 15.0, t, s, m,
+                torch.tensor(motion[None], dtype=torch.float64),
+                15.0,
+                t,
+                s,
+                m,
                 HarmonyLossConfig(beat_temperature=tau, mask_temperature=tau),
             )
             errors.append(abs(float(soft["h"][0]) - ref.h))

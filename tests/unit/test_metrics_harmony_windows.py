@@ -32,7 +32,10 @@ def swing(seconds: float, period: float = 1.0) -> np.ndarray:
 
 
 def test_windows_cut_both_modalities_at_the_same_seconds() -> None:
-    audio, motion = np.arange(SR * 13, dtype=np.float32), np.zeros((190, 2, 3))  # 13 s of audio, 12.67 s motion
+    audio, motion = (
+        np.arange(SR * 13, dtype=np.float32),
+        np.zeros((190, 2, 3)),
+    )  # 13 s of audio, 12.67 s motion
     whole = clip_windows(audio, SR, motion, FPS)
     assert len(whole) == 1 and len(whole[0][0]) == int(round(190 * SR / FPS))  # audio cut to the motion
     pieces = clip_windows(audio, SR, motion, FPS, 6.0)

@@ -76,7 +76,9 @@ class CrossModalDiscriminator(nn.Module):
                 f"harmogan_cross_modal_discriminator: A_f {tuple(mfcc.shape)} and V {tuple(motion.shape)} "
                 "must share (B, T)"
             )
-        feats = torch.cat([self.audio_branch(mfcc), self.motion_branch(motion_frame_features(motion))], dim=-1)
+        feats = torch.cat(
+            [self.audio_branch(mfcc), self.motion_branch(motion_frame_features(motion))], dim=-1
+        )
         return self.head(self.joint(feats).mean(dim=1)).squeeze(-1)
 
 
@@ -93,7 +95,9 @@ class SpatioTemporalDiscriminatorConfig:
 
     def __post_init__(self) -> None:
         if self.parts < 1 or self.parts & (self.parts - 1):
-            raise ValueError(f"harmogan_spatiotemporal_discriminator: parts must be a power of 2, got {self.parts}")
+            raise ValueError(
+                f"harmogan_spatiotemporal_discriminator: parts must be a power of 2, got {self.parts}"
+            )
 
 
 class SpatioTemporalDiscriminator(nn.Module):
@@ -125,7 +129,9 @@ class SpatioTemporalDiscriminator(nn.Module):
 
 
 @ENCODERS.register("harmogan_cross_modal_discriminator", config=CrossModalDiscriminatorConfig)
-def build_cross_modal_discriminator(cfg: CrossModalDiscriminatorConfig, **deps: object) -> CrossModalDiscriminator:
+def build_cross_modal_discriminator(
+    cfg: CrossModalDiscriminatorConfig, **deps: object
+) -> CrossModalDiscriminator:
     """Factory of HarmoGAN's cross-modal discriminator D_cd (§IV-B)."""
     return CrossModalDiscriminator(cfg)
 

@@ -89,7 +89,9 @@ class HarmoGANGeneratorConfig:
 
     def __post_init__(self) -> None:
         if self.num_joints < 1 or self.audio_channels < 1 or self.hidden < 1 or self.gru_layers < 1:
-            raise ValueError("harmogan_generator: num_joints, audio_channels, hidden, gru_layers must be >= 1")
+            raise ValueError(
+                "harmogan_generator: num_joints, audio_channels, hidden, gru_layers must be >= 1"
+            )
         if self.noise_dim < 0 or not 0.0 <= self.dropout < 1.0:
             raise ValueError("harmogan_generator: noise_dim must be >= 0 and dropout in [0, 1)")
 
@@ -111,7 +113,9 @@ class HarmoGANGenerator(nn.Module):
         j = c.num_joints
         self.audio_encoder = dense_stack(c.audio_channels + c.noise_dim, c.hidden, c.audio_blocks, c.slope)
         self.pose_encoder = dense_stack(3 * j + 1, c.hidden, c.pose_blocks, c.slope)
-        self.gru = nn.GRU(2 * c.hidden, c.hidden, c.gru_layers, batch_first=True, bidirectional=c.bidirectional)
+        self.gru = nn.GRU(
+            2 * c.hidden, c.hidden, c.gru_layers, batch_first=True, bidirectional=c.bidirectional
+        )
         self.gru_out = nn.Linear(2 * c.hidden, c.hidden) if c.bidirectional else nn.Identity()
         self.encoder_dropout = nn.Dropout(c.dropout)
         self.pose_decoder = dense_stack(c.hidden + c.noise_dim, c.hidden, c.decoder_blocks, c.slope)

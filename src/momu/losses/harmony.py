@@ -115,7 +115,9 @@ def audio_targets(
 
 
 def pad_targets(
-    targets: Sequence[AudioTargets], device: torch.device | str | None = None, dtype: torch.dtype = torch.float32
+    targets: Sequence[AudioTargets],
+    device: torch.device | str | None = None,
+    dtype: torch.dtype = torch.float32,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """A batch of targets as ``(times (B, K), saliency (B, K), mask (B, K) bool)``, zero-padded."""
     width = max([1, *(len(t.times) for t in targets)])
@@ -145,7 +147,7 @@ def harmony_terms(
     audio_mask: torch.Tensor,
     cfg: HarmonyLossConfig | None = None,
 ) -> dict[str, torch.Tensor]:
-    """Per-item ``h_s``, ``M′``, ``N′``, hits and ``h`` of the (soft) harmony evaluation; see the module docstring.
+    """Per-item ``h_s``, ``M′``, ``N′``, hits and ``h`` of the (soft) harmony evaluation (module docstring).
 
     Args:
         motion: ``(B, T, J, D)`` joint positions at ``fps``.
@@ -183,7 +185,9 @@ def harmony_terms(
     weight = e.sum(-1, keepdim=True)
     safe = weight.clamp_min(1e-12)
     mean = (e * s_star).sum(-1, keepdim=True) / safe
-    sigma = ((e * (s_star - mean) ** 2).sum(-1, keepdim=True) / safe + 1e-24).sqrt()  # ε: finite gradient at 0
+    sigma = (
+        (e * (s_star - mean) ** 2).sum(-1, keepdim=True) / safe + 1e-24
+    ).sqrt()  # ε: finite gradient at 0
     w = _step(s_star - cfg.lambda2 * sigma, cfg.mask_temperature, sigma.detach().clamp_min(1e-12))
     u = e * w  # (B, C) salient visual beat weights
     n_visual = u.sum(-1)

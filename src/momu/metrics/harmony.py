@@ -321,7 +321,9 @@ def clip_windows(
     return pieces or [(wave[..., : min(samples, int(round(frames * per_frame)))], np.asarray(motion))]
 
 
-def clip_harmony(clip: Clip, cfg: HarmonyConfig | None = None, metric: str = "harmony") -> list[HarmonyResult]:
+def clip_harmony(
+    clip: Clip, cfg: HarmonyConfig | None = None, metric: str = "harmony"
+) -> list[HarmonyResult]:
     """:func:`harmony` of every piece of ``clip`` (:func:`clip_windows`), with ``cfg``'s parameters.
 
     Raises:

@@ -50,7 +50,9 @@ def ballroom_column(folder: str) -> str:
         return FOLDER_COLUMNS[folder]
     if folder.startswith("Rumba"):
         return "rumba"
-    raise ValueError(f"ballroom: genre folder {folder!r} has no Table I column; known: {', '.join(FOLDER_COLUMNS)}")
+    raise ValueError(
+        f"ballroom: genre folder {folder!r} has no Table I column; known: {', '.join(FOLDER_COLUMNS)}"
+    )
 
 
 def select_tracks(ids: list[str], fraction: float, seed: int) -> list[int]:

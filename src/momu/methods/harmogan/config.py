@@ -7,7 +7,8 @@ Paper values (§V-B) and where they live:
   :attr:`HarmoGANConfig.pretrain` and :attr:`HarmoGANConfig.pretrain_weights`;
 * GAN training: 45 epochs, lr 1e-4 "divided by 2 and 5 alternately after every 5 epochs", weight decay
   1e-3 (discriminators) and 1e-4 (generator), Adam, batch 10 — :attr:`HarmoGANConfig.adversarial`;
-* ``λ_kl = 1e-4``, ``λ_mse = λ_feat = λ_gan = 1e-3``, ``λ_harmo = 1`` (Eq. 20) — :attr:`HarmoGANConfig.weights`;
+* ``λ_kl = 1e-4``, ``λ_mse = λ_feat = λ_gan = 1e-3``, ``λ_harmo = 1`` (Eq. 20) —
+  :attr:`HarmoGANConfig.weights`;
 * harmony constants λ1 = 0.1, λ2 = 1, T_delay = 0.25 s, β = 2 — the ``harmony_loss`` node (and the
   metric's :class:`~momu.metrics.harmony.HarmonyConfig`);
 * 15 fps, 21 joints (§V-A) — :attr:`HarmoGANConfig.fps`, the data.
@@ -161,12 +162,16 @@ class HarmoGANConfig:
     """
 
     generator_encoder: Any = field(default_factory=_node("harmogan_generator"))
-    cross_modal_discriminator_encoder: Any = field(default_factory=_node("harmogan_cross_modal_discriminator"))
+    cross_modal_discriminator_encoder: Any = field(
+        default_factory=_node("harmogan_cross_modal_discriminator")
+    )
     spatiotemporal_discriminator_encoder: Any = field(
         default_factory=_node("harmogan_spatiotemporal_discriminator")
     )
     harmony_loss: Any = field(default_factory=_node("harmony"))
-    gan_loss: Any = field(default_factory=_node("gan", objective="vanilla", adaptive_weight=False, weight=1.0))
+    gan_loss: Any = field(
+        default_factory=_node("gan", objective="vanilla", adaptive_weight=False, weight=1.0)
+    )
     fps: float = 15.0
     test_fraction: float = 0.2
     mfcc: MfccConfig = field(default_factory=MfccConfig)
@@ -195,9 +200,13 @@ def check_config(cfg: HarmoGANConfig) -> None:
         if bad:
             raise ValueError(f"method.{name}: weights must be >= 0 ({', '.join(bad)})")
     if plain_node(cfg.gan_loss).get("objective", "lsgan") != "vanilla":
-        raise ValueError("method.gan_loss.objective must be 'vanilla' (the log-likelihood terms of Eq. 17-19)")
+        raise ValueError(
+            "method.gan_loss.objective must be 'vanilla' (the log-likelihood terms of Eq. 17-19)"
+        )
     ev = cfg.evaluation
     if ev.clip_seconds <= 0 or ev.speed_factor <= 0 or ev.slow_factor <= 0 or ev.chunk_seconds <= 0:
-        raise ValueError("method.evaluation: clip_seconds, speed_factor, slow_factor, chunk_seconds must be > 0")
+        raise ValueError(
+            "method.evaluation: clip_seconds, speed_factor, slow_factor, chunk_seconds must be > 0"
+        )
     lr_segments(cfg.pretrain)
     lr_segments(cfg.adversarial)

@@ -9,7 +9,8 @@
   dance of the 8-dance subset). Nothing of a dance's held-out part is seen in training.
 * **V_2d** (:func:`project_2d`): the orthographic projection that drops z (DwM is Y-up, so the camera
   looks along z); the generator's V′ = (V′_2d, z′) follows the same convention.
-* **Meter units** (:func:`meter_unit_arrays`, :class:`MeterUnitDataset`): the training part of each dance cut by
+* **Meter units** (:func:`meter_unit_arrays`, :class:`MeterUnitDataset`): the training part of each dance
+  cut by
   :func:`momu.methods.harmogan.meter.meter_units`; each item holds A_f, V_f (Eq. 12), V, V_2d, TI and
   the salient audio beats of the unit's own audio (the harmony loss's targets, computed with the
   metric's functions, :func:`momu.losses.harmony.audio_targets`).
@@ -214,7 +215,9 @@ def meter_unit_arrays(
             rows["pose_2d"].append(project_2d(motion))
             rows["transition"].append(ti)
             rows["meter"].append(unit.meter)
-            rows["targets"].append(_unit_targets(dance.audio[u0:u1], dance.sample_rate, lambda1, normalize_saliency))
+            rows["targets"].append(
+                _unit_targets(dance.audio[u0:u1], dance.sample_rate, lambda1, normalize_saliency)
+            )
     if not rows["motion"]:
         raise ValueError(f"no meter unit of {meter.unit_seconds} s fits in the {split} parts of the dances")
     out = {k: np.stack(rows[k]).astype(np.float32) for k in UNIT_KEYS}
@@ -235,7 +238,10 @@ class MeterUnitDataset(Dataset[dict[str, torch.Tensor]]):
 
     def __init__(self, arrays: dict[str, np.ndarray]) -> None:
         self.arrays = arrays
-        self.tensors = {k: torch.from_numpy(np.ascontiguousarray(arrays[k])) for k in (*UNIT_KEYS, "audio_times", "audio_saliency")}
+        self.tensors = {
+            k: torch.from_numpy(np.ascontiguousarray(arrays[k]))
+            for k in (*UNIT_KEYS, "audio_times", "audio_saliency")
+        }
         count = torch.from_numpy(arrays["audio_count"])
         self.tensors["audio_mask"] = torch.arange(arrays["audio_times"].shape[1])[None, :] < count[:, None]
 
@@ -264,7 +270,9 @@ class Window:
     frames: int
 
 
-def eval_windows(dances: Sequence[Dance], split: str, seconds: float, hop_seconds: float | None = None) -> list[Window]:
+def eval_windows(
+    dances: Sequence[Dance], split: str, seconds: float, hop_seconds: float | None = None
+) -> list[Window]:
     """Consecutive windows of ``seconds`` (every ``hop_seconds``, default: no overlap) in ``split``."""
     out = []
     for i, dance in enumerate(dances):

@@ -33,12 +33,20 @@ from momu.engine.scores import ROW
 from momu.features.bones import bone_lengths
 from momu.features.cache import FeatureCache
 from momu.features.skeletons import get_skeleton
-from momu.methods.harmogan.data import Dance, MeterUnitDataset, Window, eval_windows, replace_motion, window_clip
+from momu.methods.harmogan.data import (
+    Dance,
+    MeterUnitDataset,
+    Window,
+    eval_windows,
+    replace_motion,
+    window_clip,
+)
 from momu.methods.harmogan.method import HarmoGAN
 from momu.methods.harmogan.model import HarmoGANModel
 from momu.methods.harmogan.perturb import beat_period, shifted_audio, static_pose, time_warped
 from momu.methods.harmogan.prepare import load_dances, load_units
 from momu.methods.momu.scoring import derangement
+from momu.metrics._clips import clip_motion
 from momu.metrics.harmony import HarmonyConfig, clip_harmony
 
 __all__ = [
@@ -112,10 +120,12 @@ def model_folder(data: RunData, key_hash: str) -> Path:
 
 
 def fit_model(ctx: RunContext, data: RunData, seed: int) -> tuple[HarmoGANModel, str]:
-    """Train (or reuse) the row's model; save it once. Returns the model and its folder (relative to ``<out>``)."""
+    """Train (or reuse) the row's model, save it once; returns it and its folder (relative to ``<out>``)."""
     with ctx.timed("data"):
         arrays, stats = load_units(data.dances, data.key, data.method.cfg, data.cache)
-    model, key_hash = data.method.fit(data.shared, data.dances, MeterUnitDataset(arrays), stats, data.key, seed)
+    model, key_hash = data.method.fit(
+        data.shared, data.dances, MeterUnitDataset(arrays), stats, data.key, seed
+    )
     folder = model_folder(data, key_hash)
     if ctx.accelerator.is_main_process and not (folder / "harmogan.json").is_file():
         model.save(folder)
@@ -177,7 +187,13 @@ def motion_values(
     * ``foot_error`` — its absolute difference from the ground-truth clip's (cm).
     """
     bones = get_skeleton("dwm21").bones
-    out: dict[str, list[float]] = {"mse": [], "cosine": [], "bone_error": [], "foot_height": [], "foot_error": []}
+    out: dict[str, list[float]] = {
+        "mse": [],
+        "cosine": [],
+        "bone_error": [],
+        "foot_height": [],
+        "foot_error": [],
+    }
     for gen, ref in zip(motions, truth):
         g, r = np.asarray(gen, np.float64), np.asarray(ref, np.float64)
         n = min(len(g), len(r))
@@ -197,7 +213,9 @@ def motion_values(
 def training_bones(dances: Sequence[Dance]) -> np.ndarray:
     """Mean bone lengths of the training parts (the reference of ``bone_error``)."""
     bones = get_skeleton("dwm21").bones
-    return np.concatenate([np.asarray(bone_lengths(d.motion[: d.split_frame], bones)) for d in dances]).mean(0)
+    return np.concatenate([np.asarray(bone_lengths(d.motion[: d.split_frame], bones)) for d in dances]).mean(
+        0
+    )
 
 
 def with_row(cfg: DictConfig, kind: str) -> DictConfig:
@@ -219,7 +237,9 @@ def row_clips(
     """
     windows, truth = test_set(data, split)
     perm = derangement(len(truth))
-    shuffled = [replace_motion(truth[i], truth[perm[i]].motion, "/shuf") for i in range(len(truth))]  # type: ignore[arg-type]
+    shuffled = [
+        replace_motion(truth[i], clip_motion(truth[perm[i]], "harmony"), "/shuf") for i in range(len(truth))
+    ]
     variants: dict[str, list[Clip]] = {"ground truth": truth, "shuffled": shuffled}
     kind = cfg.get("calibration_row")
     artifacts: dict[str, str] = {}
@@ -227,7 +247,7 @@ def row_clips(
     if kind is None:
         model, folder = fit_model(ctx, data, seed)
         artifacts["model"] = folder
-        firsts = [c.motion[0] for c in truth]  # type: ignore[index]
+        firsts: list[np.ndarray | None] = [clip_motion(c, "harmony")[0] for c in truth]
         own = generate(ctx, model, truth, firsts, seed)
         other = generate(ctx, model, [truth[perm[i]] for i in range(len(truth))], firsts, seed)
         variants[ROW] = [replace_motion(c, m, "/gen") for c, m in zip(truth, own)]
@@ -246,7 +266,10 @@ def row_clips(
         variants[ROW] = rows
     elif kind == "static":
         rng = np.random.default_rng([int(seed), 15])
-        variants[ROW] = [replace_motion(c, static_pose(c.motion, ev.static_noise_m, rng), "/static") for c in truth]  # type: ignore[arg-type]
+        variants[ROW] = [
+            replace_motion(c, static_pose(clip_motion(c, "harmony"), ev.static_noise_m, rng), "/static")
+            for c in truth
+        ]
     elif kind == "fast":
         variants[ROW] = [
             replace_motion(c, time_warped(data.dances[w.dance], w, ev.speed_factor), "/fast")

@@ -96,7 +96,7 @@ class Meter:
 
 @dataclass(frozen=True)
 class MeterUnit:
-    """One meter unit in motion frames: ``[start, start + length)``; its meter is ``[meter_start, meter_end)``."""
+    """A meter unit in motion frames: ``[start, start + length)``, its meter ``[meter_start, meter_end)``."""
 
     start: int
     meter_start: int
@@ -111,7 +111,7 @@ class MeterUnit:
 
 
 def strong_weak(saliency: np.ndarray, margin: float = 0.0) -> np.ndarray:
-    """HarmoGAN §IV-A: 1 for a strong beat (saliency above the preceding beat's), else 0; the first is strong."""
+    """HarmoGAN §IV-A: 1 for a strong beat (saliency above the preceding beat's), else 0; the first: 1."""
     s = np.asarray(saliency, dtype=np.float64).reshape(-1)
     labels = np.zeros(s.size, dtype=np.int64)
     if s.size:

@@ -131,7 +131,10 @@ class HarmoGAN:
                 "harmony_loss": plain_node(c.harmony_loss) if c.weights.harmo > 0 else None,
                 "gan_loss": plain_node(c.gan_loss),
                 "weights": dataclasses.asdict(c.weights),
-                "weight_decay": [c.adversarial.generator_weight_decay, c.adversarial.discriminator_weight_decay],
+                "weight_decay": [
+                    c.adversarial.generator_weight_decay,
+                    c.adversarial.discriminator_weight_decay,
+                ],
                 "train": dataclasses.asdict(tc),
                 "seed": seed,
             }
@@ -157,7 +160,9 @@ class HarmoGAN:
         joints = int(dances[0].motion.shape[1])
         nodes = self.nodes(joints)
         generator: nn.Module = build_component(nodes["generator"], "encoders")
-        pre_keys, adv_keys = self.stage_keys(data_key, joints, len(units), ctx.accelerator.num_processes, seed)
+        pre_keys, adv_keys = self.stage_keys(
+            data_key, joints, len(units), ctx.accelerator.num_processes, seed
+        )
         pre_cfgs = self._segments(c.pretrain, len(units), ctx.accelerator.num_processes, seed)
         adv_cfgs = self._segments(c.adversarial, len(units), ctx.accelerator.num_processes, seed)
         log.info("harmogan: %d meter units of %.1f s; seed %d", len(units), c.meter.unit_seconds, seed)

@@ -20,6 +20,7 @@ salient visual beat on a strong onset.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -75,7 +76,7 @@ class HarmoGANModel:
     def generate(
         self, audio: np.ndarray, sr: int, initial_pose: np.ndarray | None = None, seed: int = 0
     ) -> np.ndarray:
-        """Dance for ``audio`` (any length): ``(T, J, 3)`` float32 at :attr:`fps`, ``T = floor(duration · fps)``.
+        """Dance for ``audio`` of any length: ``(T, J, 3)`` float32 at :attr:`fps`, T = floor(duration · fps).
 
         Args:
             audio: mono ``(S,)`` (or ``(C, S)``) waveform at ``sr`` Hz.
@@ -91,7 +92,9 @@ class HarmoGANModel:
             wave, rate = resample(wave, rate, self.sample_rate), self.sample_rate
         frames = int(np.floor(len(wave) / rate * self.fps + 1e-6))
         if frames < 2:
-            raise ValueError(f"generate: the music is {len(wave) / rate:.3f} s long; it needs at least 2 frames")
+            raise ValueError(
+                f"generate: the music is {len(wave) / rate:.3f} s long; it needs at least 2 frames"
+            )
         pose0 = self.mean_pose if initial_pose is None else np.asarray(initial_pose, dtype=np.float32)
         if pose0.shape != self.mean_pose.shape:
             raise ValueError(f"generate: initial_pose must be {self.mean_pose.shape}, got {pose0.shape}")
@@ -126,7 +129,7 @@ class HarmoGANModel:
 
     # ------------------------------------------------------------------ save / load
     def save(self, folder: str | Path) -> Path:
-        """Write ``harmogan.json`` (config, statistics, mean pose) and ``generator/`` (config + safetensors)."""
+        """Write ``harmogan.json`` (config, statistics, mean pose) and ``generator/`` (a saved part)."""
         from momu import __version__
 
         folder = Path(folder)
@@ -150,8 +153,10 @@ class HarmoGANModel:
 
     def generator_node(self) -> dict[str, Any]:
         """The generator's component node with the widths it was built with."""
-        gcfg = self.generator.cfg  # type: ignore[attr-defined]
-        return {"name": plain_node(self.cfg.generator_encoder)["name"], **OmegaConf.to_container(OmegaConf.structured(gcfg))}  # type: ignore[dict-item]
+        gcfg = getattr(self.generator, "cfg", None)
+        if not dataclasses.is_dataclass(gcfg) or isinstance(gcfg, type):
+            raise TypeError("HarmoGANModel: the generator has no config dataclass (cfg) to save")
+        return {"name": plain_node(self.cfg.generator_encoder)["name"], **dataclasses.asdict(gcfg)}
 
     @classmethod
     def load(cls, folder: str | Path) -> HarmoGANModel:

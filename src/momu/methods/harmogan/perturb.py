@@ -34,15 +34,15 @@ def beat_period(dance: Dance) -> float:
 
 
 def shifted_audio(dance: Dance, window: Window, seconds: float) -> np.ndarray:
-    """The window's audio taken ``seconds`` earlier — or later where the song starts too soon (a half-beat
-    shift moves the phase by half a beat either way) — with the same length.
+    """The window's audio taken ``seconds`` earlier — or the other way where the shift would leave the song
+    (a half-beat shift moves the phase by half a beat either way) — with the same length.
 
     Raises:
         ValueError: the song is too short for the shift either way.
     """
     a0, a1 = dance.samples(window.start, window.start + window.frames)
     shift = int(round(seconds * dance.sample_rate))
-    if a0 - shift < 0:
+    if a0 - shift < 0 or a1 - shift > len(dance.audio):
         shift = -shift
     if a0 - shift < 0 or a1 - shift > len(dance.audio):
         raise ValueError(f"dance {dance.id!r}: a shift of {seconds:.3f} s leaves the song")
@@ -67,7 +67,9 @@ def time_warped(dance: Dance, window: Window, factor: float) -> np.ndarray:
     total = dance.motion.shape[0]
     span = factor * (window.frames - 1)
     if span > total - 1:
-        raise ValueError(f"dance {dance.id!r}: {total} frames are too few for a ×{factor} warp of {window.frames}")
+        raise ValueError(
+            f"dance {dance.id!r}: {total} frames are too few for a ×{factor} warp of {window.frames}"
+        )
     start = min(float(window.start), total - 1 - span)
     pos = start + factor * np.arange(window.frames)
     lo = np.floor(pos).astype(np.int64)

@@ -33,13 +33,19 @@ def bar_plot(result: Mapping[str, Any], path: Path) -> Path | None:
     columns = [c for c in result["columns"] if any(c["key"] in r["metrics"] for r in rows)]
     if not columns:
         return None
-    fig, axes = plt.subplots(1, len(columns), figsize=(3.2 * len(columns) + 2, 0.35 * len(rows) + 1.5), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(columns), figsize=(3.2 * len(columns) + 2, 0.35 * len(rows) + 1.5), squeeze=False
+    )
     for ax, col in zip(axes[0], columns):
         names = [r["name"] for r in rows if col["key"] in r["metrics"]]
         values = [r["metrics"][col["key"]] for r in rows if col["key"] in r["metrics"]]
-        errors = [(r.get("interval") or {}).get(col["key"]) or 0.0 for r in rows if col["key"] in r["metrics"]]
+        errors = [
+            (r.get("interval") or {}).get(col["key"]) or 0.0 for r in rows if col["key"] in r["metrics"]
+        ]
         y = np.arange(len(names))
-        ax.barh(y, values, xerr=errors, color=["C0" if "calibration" not in n else "C7" for n in names], capsize=3)
+        ax.barh(
+            y, values, xerr=errors, color=["C0" if "calibration" not in n else "C7" for n in names], capsize=3
+        )
         ax.set_yticks(y, names if ax is axes[0][0] else [""] * len(names), fontsize=7)
         ax.invert_yaxis()
         ax.set_title(col["label"], fontsize=8)

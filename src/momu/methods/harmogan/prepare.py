@@ -33,7 +33,7 @@ __all__ = ["dataset_node", "data_key", "load_dances", "load_units"]
 
 
 def dataset_node(cfg: DictConfig | dict[str, Any], fps: float) -> dict[str, Any]:
-    """The dataset node a run reads: the real loader at ``dance.root`` (at ``fps``) or the synthetic stand-in."""
+    """The dataset node a run reads: the real loader at ``dance.root`` (at ``fps``) or the synthetic one."""
     dance = to_container(cfg["dance"]) if not isinstance(cfg["dance"], dict) else dict(cfg["dance"])
     root = dance.get("root")
     if root:
@@ -118,7 +118,12 @@ def load_units(
     harmony = plain_node(method.harmony_loss)
     lambda1 = float(harmony.get("lambda1", 0.1))
     normalize = bool(harmony.get("normalize_saliency", True))
-    config = {"data": key, "meter": dataclasses.asdict(method.meter), "lambda1": lambda1, "normalize": normalize}
+    config = {
+        "data": key,
+        "meter": dataclasses.asdict(method.meter),
+        "lambda1": lambda1,
+        "normalize": normalize,
+    }
 
     def compute() -> dict[str, np.ndarray]:
         return meter_unit_arrays(dances, method.meter, stats, lambda1=lambda1, normalize_saliency=normalize)

@@ -22,7 +22,7 @@ shifted by half a beat, a static pose with 0.1 mm noise, and ground truth sped u
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -73,7 +73,7 @@ def node_overrides(path: str | Path) -> list[str]:
     """
     tree = OmegaConf.to_container(OmegaConf.load(Path(path)), resolve=False)
     assert isinstance(tree, dict)
-    return [f"{key}={json.dumps(value)}" for key, value in tree.items()]
+    return [f"{key!s}={json.dumps(value)}" for key, value in tree.items()]
 
 
 _TINY = {
@@ -101,7 +101,8 @@ PRESETS: dict[str, list[str]] = {
 }
 
 _CALIBRATION = tuple(
-    Row(f"cal-{kind.replace('_', '-')}", name, (f"calibration_row={kind}",)) for kind, name in CALIBRATION_ROWS.items()
+    Row(f"cal-{kind.replace('_', '-')}", name, (f"calibration_row={kind}",))
+    for kind, name in CALIBRATION_ROWS.items()
 )
 
 _TABLE1 = {
@@ -134,7 +135,16 @@ def _paper(prefix: str, values: Sequence[float]) -> dict[str, float]:
     return {f"{prefix}_{g}": v for g, v in zip((*GENRES, "average"), values)}
 
 
-def _genre_spec(name: str, title: str, prefix: str, label: str, paper: dict[str, tuple[float, ...]], evaluate: Any, calibrate: Any, base: str | Path) -> TableSpec:
+def _genre_spec(
+    name: str,
+    title: str,
+    prefix: str,
+    label: str,
+    paper: Mapping[str, Sequence[float]],
+    evaluate: Any,
+    calibrate: Any,
+    base: str | Path,
+) -> TableSpec:
     columns = [Column(f"{prefix}_{g}", f"{label} {g}↑", True) for g in (*GENRES, "average")]
     return TableSpec(
         name=name,
@@ -144,7 +154,12 @@ def _genre_spec(name: str, title: str, prefix: str, label: str, paper: dict[str,
         columns=columns,
         rows=[
             Row("harmogan", "HarmoGAN", (), _paper(prefix, paper["HarmoGAN"])),
-            Row("wo-harmo", "HarmoGAN w/o L_harmo", _WITHOUT_HARMO, _paper(prefix, paper["HarmoGAN w/o L_harmo"])),
+            Row(
+                "wo-harmo",
+                "HarmoGAN w/o L_harmo",
+                _WITHOUT_HARMO,
+                _paper(prefix, paper["HarmoGAN w/o L_harmo"]),
+            ),
             *_CALIBRATION,
         ],
         baselines=[PaperRow(n, _paper(prefix, paper[n])) for n in ("Lee et al. [28]", "Ren et al. [18]")],
@@ -203,7 +218,11 @@ def fig12_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         base_config=base_config,
         presets=PRESETS,
         columns=[Column("h", "h↑", True), Column("hit_rate", "hit rate %↑", True)],
-        rows=[Row("harmogan", "HarmoGAN"), Row("wo-harmo", "HarmoGAN w/o L_harmo", _WITHOUT_HARMO), *_CALIBRATION],
+        rows=[
+            Row("harmogan", "HarmoGAN"),
+            Row("wo-harmo", "HarmoGAN w/o L_harmo", _WITHOUT_HARMO),
+            *_CALIBRATION,
+        ],
         evaluate=evaluate_fig12,
         calibrate=calibrate_fig12,
         data_key="dance",
@@ -249,9 +268,9 @@ def fig9_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
             "ground-truth held-out windows (a stand-in for FID on rendered frames); its *ground truth* value "
             "is the training frames vs the held-out frames.",
             "bone-length error: mean over bones of |mean length / the training data's mean − 1| per clip; "
-            "foot-height error: |median lowest heel/toe height relative to the root − the ground-truth clip's| "
-            "(`foot_height` itself is in results.json). The shuffled row shows the data's own spread: another "
-            "real clip's motion, judged against this clip.",
+            "foot-height error: |median lowest heel/toe height relative to the root − the ground-truth "
+            "clip's| (`foot_height` itself is in results.json). The shuffled row shows the data's own "
+            "spread: another real clip's motion, judged against this clip.",
         ),
     )
 
@@ -262,13 +281,21 @@ def fig11_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         "chunks": ("permuted 1-s chunks", ["chunks"]),
         "slow": ("slowed ×0.8", ["slow"]),
         "fast": ("sped up ×1.25", ["fast"]),
-        "pooled": ("chunks, slow and fast pooled (the paper's 'permuting or warping')", ["chunks", "slow", "fast"]),
+        "pooled": (
+            "chunks, slow and fast pooled (the paper's 'permuting or warping')",
+            ["chunks", "slow", "fast"],
+        ),
         "shuffled": ("motion of another clip (shuffled)", ["shuffled"]),
         "half-beat": ("audio shifted by half a beat", ["half_beat"]),
         "static": ("static mean pose + 0.1 mm noise", ["static"]),
     }
     rows = [
-        Row(rid, name, (f"fig11_perturbations={json.dumps(k)}",), {"agreement_h": 81.5} if rid == "pooled" else {})
+        Row(
+            rid,
+            name,
+            (f"fig11_perturbations={json.dumps(k)}",),
+            {"agreement_h": 81.5} if rid == "pooled" else {},
+        )
         for rid, (name, k) in kinds.items()
     ]
     return TableSpec(
@@ -286,7 +313,8 @@ def fig11_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
         calibrate=calibrate_fig11,
         data_key="dance",
         notes=(
-            "The paper's 81.5 % is the agreement of h with 12 viewers on 20 pairs (ground truth vs permuted or "
+            "The paper's 81.5 % is the agreement of h with 12 viewers on 20 pairs (ground truth vs permuted "
+            "or "
             "warped copies); momu has no viewers, so this is the metric side only: the share of all 6-s "
             "windows of the dances where h (or the hit rate) scores the ground truth above its perturbed "
             "copy (ties ½). Viewers presumably prefer ground truth in all of them.",
@@ -298,8 +326,13 @@ def fig11_spec(base_config: str | Path = BASE_CONFIG) -> TableSpec:
 def _pairwise(result: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
     """Every pair of our rows per column, with its interval (momu.engine.table_results.orderings over
     placeholder cells, so that every pair is compared; only the intervals are used)."""
-    rows = [{**r, "paper": {c["key"]: float(i) for c in result["columns"]}} for i, r in enumerate(result["rows"])]
-    cols = [Column(c["key"], c["label"], c["higher_is_better"], c.get("reducer", "mean")) for c in result["columns"]]
+    rows = [
+        {**r, "paper": {c["key"]: float(i) for c in result["columns"]}} for i, r in enumerate(result["rows"])
+    ]
+    cols = [
+        Column(c["key"], c["label"], c["higher_is_better"], c.get("reducer", "mean"))
+        for c in result["columns"]
+    ]
     pairs = orderings(rows, cols)
     names = {r["id"]: r["name"] for r in result["rows"]}
     lines = ["", "## Pairwise comparisons of our rows", ""]
@@ -316,7 +349,8 @@ def _pairwise(result: dict[str, Any]) -> tuple[list[str], dict[str, Any]]:
             a, b = p["rows"]
             verdict = "distinguishable" if p["distinguishable"] else "not distinguishable"
             lines.append(
-                f"  - {names[a]} − {names[b]}: {p['estimate']:+.4g} [{p['low']:+.4g}, {p['high']:+.4g}] ({verdict})"
+                f"  - {names[a]} − {names[b]}: {p['estimate']:+.4g} "
+                f"[{p['low']:+.4g}, {p['high']:+.4g}] ({verdict})"
             )
     return lines, {k: v["pairs"] for k, v in pairs.items()}
 

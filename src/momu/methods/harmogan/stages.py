@@ -41,7 +41,7 @@ __all__ = ["kl_loss", "mse_loss", "feature_loss", "PretrainStage", "AdversarialS
 
 
 def kl_loss(pred_2d: torch.Tensor, true_2d: torch.Tensor, temperature: float) -> torch.Tensor:
-    """HarmoGAN Eq. 13: ``KL(P(V_2d) ‖ P(V′_2d))``, P = softmax over a frame's flattened 2D coordinates / τ."""
+    """HarmoGAN Eq. 13: ``KL(P(V_2d) ‖ P(V′_2d))``, P = softmax of a frame's flattened 2D coordinates / τ."""
     b, t = true_2d.shape[:2]
     p_log = F.log_softmax(true_2d.reshape(b, t, -1) / temperature, dim=-1)
     q_log = F.log_softmax(pred_2d.reshape(b, t, -1) / temperature, dim=-1)
@@ -145,12 +145,16 @@ class AdversarialStage(nn.Module):
         terms["gan"] = self.gan_loss.generator_loss(cd_fake) + self.gan_loss.generator_loss(st_fake)  # Eq. 19
         generator_loss = sum(getattr(w, k) * v for k, v in terms.items())
         detached = fake.detach()
-        d_cd = self.gan_loss.discriminator_loss(self.cross_modal(mfcc, real), self.cross_modal(mfcc, detached))
+        d_cd = self.gan_loss.discriminator_loss(
+            self.cross_modal(mfcc, real), self.cross_modal(mfcc, detached)
+        )
         d_st = self.gan_loss.discriminator_loss(self.spatiotemporal(real), self.spatiotemporal(detached))
         decay = 0.5 * self.wd_g * _l2(self.generator) + 0.5 * self.wd_d * (
             _l2(self.cross_modal) + _l2(self.spatiotemporal)
         )
         loss = generator_loss + d_cd + d_st + decay
         logs = {k: float(v.detach()) for k, v in terms.items()}
-        logs.update(generator=float(generator_loss.detach()), d_cd=float(d_cd.detach()), d_st=float(d_st.detach()))
+        logs.update(
+            generator=float(generator_loss.detach()), d_cd=float(d_cd.detach()), d_st=float(d_st.detach())
+        )
         return loss, logs

@@ -30,8 +30,9 @@ from momu.config import build_component
 from momu.data.types import Clip
 from momu.engine.context import RunContext
 from momu.engine.scores import ROW, Scores
+from momu.io import write_json
 from momu.methods.harmogan.ballroom import ballroom_test_clips
-from momu.methods.harmogan.data import replace_motion
+from momu.methods.harmogan.data import Window, replace_motion
 from momu.methods.harmogan.evaluate import (
     RunData,
     fit_model,
@@ -46,6 +47,7 @@ from momu.methods.harmogan.evaluate import (
 )
 from momu.methods.harmogan.perturb import chunk_permuted, static_pose, time_warped
 from momu.methods.momu.scoring import derangement
+from momu.metrics._clips import clip_motion
 from momu.metrics.frechet import frechet_distance
 
 __all__ = [
@@ -87,7 +89,9 @@ def genre_scores(
     for g in present:
         scores.metrics[f"{prefix}_{g}"] = float(values[ROW][style == g].mean())
     if present:
-        scores.metrics[f"{prefix}_average"] = float(np.mean([scores.metrics[f"{prefix}_{g}"] for g in present]))
+        scores.metrics[f"{prefix}_average"] = float(
+            np.mean([scores.metrics[f"{prefix}_{g}"] for g in present])
+        )
     return scores
 
 
@@ -95,23 +99,34 @@ def _harmony_variants(clips: Mapping[str, list[Clip]], seconds: float) -> dict[s
     return {variant: harmony_values(c, seconds) for variant, c in clips.items()}
 
 
-def _ballroom_row(ctx: RunContext, cfg: DictConfig, data: RunData, seed: int) -> tuple[dict[str, list[Clip]], dict[str, str]]:
+def _ballroom_row(
+    ctx: RunContext, cfg: DictConfig, data: RunData, seed: int
+) -> tuple[dict[str, list[Clip]], dict[str, str]]:
     """Model and static-pose rows on the Ballroom clips (no ground-truth motion: *other condition* only)."""
     node = dict(cfg.ballroom.dataset)
     node["root"] = str(cfg.ballroom.root)
     music = ballroom_test_clips(
-        build_component(node, "datasets"), float(cfg.ballroom.fraction), data.method.cfg.evaluation.clip_seconds, int(cfg.ballroom.seed)
+        build_component(node, "datasets"),
+        float(cfg.ballroom.fraction),
+        data.method.cfg.evaluation.clip_seconds,
+        int(cfg.ballroom.seed),
     )
     if len(music) < 2:
         raise ValueError("ballroom: fewer than 2 test clips")
     fps = data.method.cfg.fps
-    frames = [int(np.floor(len(c.audio) / c.sample_rate * fps + 1e-6)) for c in music]  # type: ignore[arg-type]
+    frames = [int(np.floor(c.duration * fps + 1e-6)) for c in music]
     if cfg.get("calibration_row") == "static":
         rng = np.random.default_rng([int(seed), 15])
         mean = np.concatenate([d.motion[: d.split_frame] for d in data.dances]).mean(axis=0)
         ev = data.method.cfg.evaluation
         rows = [
-            Clip(**{**c.__dict__, "motion": static_pose(np.repeat(mean[None], n, 0), ev.static_noise_m, rng), "fps": fps})
+            Clip(
+                **{
+                    **c.__dict__,
+                    "motion": static_pose(np.repeat(mean[None], n, 0), ev.static_noise_m, rng),
+                    "fps": fps,
+                }
+            )
             for c, n in zip(music, frames)
         ]
         return {ROW: rows}, {}
@@ -149,14 +164,22 @@ def _table(ctx: RunContext, cfg: DictConfig, seed: int, metric: str, scale: floa
     return scores
 
 
+def record_timings(ctx: RunContext, scores: Scores) -> Scores:
+    """Write the run's wall and CPU seconds per category so far (training stages, sampling, metrics, data)
+    to ``<out>/<table>/timings.json`` (main process); returns ``scores``."""
+    if ctx.accelerator.is_main_process:
+        write_json(ctx.out_dir / "timings.json", ctx.timings)
+    return scores
+
+
 def evaluate_table1(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     """HarmoGAN Table I: harmony score ``h`` per genre column and their average."""
-    return _table(ctx, cfg, seed, "h", 1.0)
+    return record_timings(ctx, _table(ctx, cfg, seed, "h", 1.0))
 
 
 def evaluate_table2(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     """HarmoGAN Table II: hit rate (%) per genre column and their average."""
-    return _table(ctx, cfg, seed, "hit_rate", 100.0)
+    return record_timings(ctx, _table(ctx, cfg, seed, "hit_rate", 100.0))
 
 
 def evaluate_fig12(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
@@ -171,7 +194,7 @@ def evaluate_fig12(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
             scores.add_clips(key, variant, scale * v[key])
         scores.metrics[key] = float(scale * values[ROW][key].mean())
     scores.metrics["clips"] = float(len(clips[ROW]))
-    return scores
+    return record_timings(ctx, scores)
 
 
 def evaluate_fig9(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
@@ -179,22 +202,22 @@ def evaluate_fig9(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     realism checks (bone-length error %, foot height cm); per clip against the same ground truth."""
     data = run_data(ctx, cfg)
     clips, truth, artifacts = row_clips(ctx, cfg, data, seed)
-    true_motion = [c.motion for c in truth]
+    true_motion = [clip_motion(c, "fig9") for c in truth]
     bones = training_bones(data.dances)
     scores = Scores(metrics={}, artifacts=artifacts)
     with ctx.timed("metrics"):
         for variant, cs in clips.items():
-            vals = motion_values([c.motion for c in cs], true_motion, bones)  # type: ignore[misc]
+            vals = motion_values([clip_motion(c, "fig9") for c in cs], true_motion, bones)
             for key, v in vals.items():
                 scores.add_clips(key, variant, v)
                 if variant == ROW:
                     scores.metrics[key] = float(v.mean())
-        gt_frames = np.concatenate([np.asarray(m).reshape(len(m), -1) for m in true_motion])  # type: ignore[arg-type]
+        gt_frames = np.concatenate([m.reshape(len(m), -1) for m in true_motion])
         row_frames = np.concatenate([np.asarray(c.motion).reshape(c.num_frames, -1) for c in clips[ROW]])
         train = np.concatenate([d.motion[: d.split_frame].reshape(d.split_frame, -1) for d in data.dances])
         scores.metrics["fid"] = frechet_distance(row_frames, gt_frames)
         scores.add_seed_value("fid", "ground truth", frechet_distance(train, gt_frames))
-    return scores
+    return record_timings(ctx, scores)
 
 
 FIG11_KINDS = ("chunks", "slow", "fast", "shuffled", "half_beat", "static")
@@ -216,7 +239,8 @@ def evaluate_fig11(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     for kind in kinds:
         if kind in ("chunks", "slow", "fast"):
             pert = [
-                replace_motion(c, _fig11_motion(data, w, c, kind, rng), f"/{kind}") for w, c in zip(windows, truth)
+                replace_motion(c, _fig11_motion(data, w, c, kind, rng), f"/{kind}")
+                for w, c in zip(windows, truth)
             ]
         else:
             sub = DictConfig({"calibration_row": kind})
@@ -236,15 +260,17 @@ def evaluate_fig11(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     scores.add_clips("h", "ground truth", np.concatenate(gt_h))
     scores.metrics["h"] = float(np.concatenate(pert_h).mean())
     scores.metrics["pairs"] = float(len(np.concatenate(pert_h)))
-    return scores
+    return record_timings(ctx, scores)
 
 
-def _fig11_motion(data: RunData, window: object, clip: Clip, kind: str, rng: np.random.Generator) -> np.ndarray:
+def _fig11_motion(
+    data: RunData, window: Window, clip: Clip, kind: str, rng: np.random.Generator
+) -> np.ndarray:
     ev = data.method.cfg.evaluation
-    dance = data.dances[window.dance]  # type: ignore[attr-defined]
+    dance = data.dances[window.dance]
     if kind == "chunks":
-        return chunk_permuted(np.asarray(clip.motion), int(round(ev.chunk_seconds * dance.fps)), rng)
-    return time_warped(dance, window, ev.slow_factor if kind == "slow" else ev.speed_factor)  # type: ignore[arg-type]
+        return chunk_permuted(clip_motion(clip, "fig11"), int(round(ev.chunk_seconds * dance.fps)), rng)
+    return time_warped(dance, window, ev.slow_factor if kind == "slow" else ev.speed_factor)
 
 
 def _agreement(truth: np.ndarray, perturbed: np.ndarray) -> np.ndarray:
