@@ -149,3 +149,19 @@ def test_paper_schedules_are_the_defaults() -> None:
     assert (cfg.pretrain_weights.kl, cfg.pretrain_weights.mse) == (0.1, 1.0)
     assert lr_segments(Schedule(epochs=7, decay_every=0)) == [(7, 1.0)]
     assert lr_segments(AdversarialSchedule(epochs=12)) == [(5, 1.0), (5, 0.5), (2, pytest.approx(0.1))]
+
+
+def test_momu_list_shows_the_harmogan_parts(capsys: pytest.CaptureFixture[str]) -> None:
+    from momu.cli import main
+
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in (
+        "harmogan_generator",
+        "harmogan_cross_modal_discriminator",
+        "harmogan_spatiotemporal_discriminator",
+        "harmogan",
+    ):
+        assert name in out
+    losses = out.split("losses")[1].split("samplers")[0]
+    assert "harmony" in losses
