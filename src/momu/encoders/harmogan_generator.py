@@ -10,12 +10,14 @@ fields below (defaults: the cpu-preset sizes; ``recipes/configs/harmogan_paper.y
 
 Per frame ``t`` of a meter unit:
 
-1. **Encoding**: ``[A_f,t ⊕ z_t]`` (MFCCs and ``noise_dim`` Gaussian noise: "noise at the beginning")
+1. **Encoding**: ``[A_f,t ⊕ z]`` (MFCCs and ``noise_dim`` Gaussian noise: "noise at the beginning"; one
+   noise vector per unit, repeated over its frames — i.i.d. noise per frame, ``noise_per_frame``, makes
+   the generated joints jitter: about twice the acceleration per unit of speed of the real motion)
    → ``audio_blocks`` dense blocks; the pose input ``[V_f,t ⊕ e_t]`` (Eq. 12 poses, flattened, and the
    transition index TI) → ``pose_blocks`` dense blocks; both concatenated → a GRU (``gru_layers``,
    bidirectional by default: a unit's music is known in full) → latent ``L_t``; dropout ``p`` at the
    end of encoding.
-2. **Decoding**: ``[L_t ⊕ z′_t]`` (fresh noise at the beginning of decoding) → ``decoder_blocks`` dense
+2. **Decoding**: ``[L_t ⊕ z′]`` (a second noise vector at the beginning of decoding) → ``decoder_blocks`` dense
    blocks → dropout → a linear layer to ``V′_2d,t`` (J × 2; with ``residual`` it is added to V_f's
    x, y: the decoder predicts the motion relative to the unit's initial poses).
 3. **Depth lifting**: ``[V′_2d,t ⊕ L_t]`` → ``lifting_blocks`` dense blocks → a linear layer to the
@@ -68,6 +70,7 @@ class HarmoGANGeneratorConfig:
         gru_layers: stacked GRU layers; bidirectional: a bidirectional GRU (output projected to ``hidden``).
         decoder_blocks: dense blocks of the pose decoder; lifting_blocks: of the depth-lifting network.
         noise_dim: Gaussian noise channels concatenated at the start of encoding and of decoding.
+        noise_per_frame: draw the noise per frame (``False``: one vector per unit, repeated).
         dropout: dropout probability at the end of encoding and of decoding.
         slope: LeakyReLU negative slope.
         residual: predict poses relative to V_f (the unit's initial poses) instead of absolute.
@@ -83,6 +86,7 @@ class HarmoGANGeneratorConfig:
     decoder_blocks: int = 2
     lifting_blocks: int = 2
     noise_dim: int = 16
+    noise_per_frame: bool = False
     dropout: float = 0.1
     slope: float = 0.2
     residual: bool = True
@@ -125,10 +129,13 @@ class HarmoGANGenerator(nn.Module):
         self.to_depth = nn.Linear(c.hidden, j)
 
     def _noise(self, like: torch.Tensor, generator: torch.Generator | None) -> torch.Tensor:
-        shape = (*like.shape[:2], self.cfg.noise_dim)
+        b, t = like.shape[:2]
+        shape = (b, t if self.cfg.noise_per_frame else 1, self.cfg.noise_dim)
         if generator is None:
-            return torch.randn(shape, device=like.device, dtype=like.dtype)
-        return torch.randn(shape, generator=generator, dtype=like.dtype).to(like.device)
+            z = torch.randn(shape, device=like.device, dtype=like.dtype)
+        else:
+            z = torch.randn(shape, generator=generator, dtype=like.dtype).to(like.device)
+        return z.expand(b, t, self.cfg.noise_dim)
 
     def forward(
         self,

@@ -15,13 +15,17 @@ calls ``loss_fn(module, batch)``; each stage's ``forward`` returns ``(loss, logs
 
 Pose-domain losses (§IV-C):
 
-* :func:`kl_loss` (Eq. 13) — ``KL(P(V_2d) ‖ P(V′_2d))`` with ``P`` the softmax of each frame's
-  flattened 2D coordinates divided by ``τ`` (the paper leaves P undefined), averaged over frames and
-  the batch;
-* :func:`mse_loss` (Eq. 14) — mean squared error of the 3D poses;
-* :func:`feature_loss` (Eq. 15) — a **stand-in for the VGG feature loss**: ImageNet VGG on rendered
-  poses cannot be loaded offline, so momu compares kinematic features (the per-frame velocities and
-  accelerations of every joint) by mean squared error. It is not VGG.
+* :func:`kl_loss` (Eq. 13) — ``KL(P(V_2d) ‖ P(V′_2d))`` of the sequence, with ``P`` a product over
+  frames of the softmax of each frame's flattened 2D coordinates divided by ``τ`` (the paper leaves P
+  undefined): the per-frame KLs summed over the frames, averaged over the batch;
+* :func:`mse_loss` (Eq. 14) — ``‖V − G(A_f, V_f)‖₂``: the L2 norm of the difference of the whole
+  sequence, as the equation is written (the text calls it the MSE loss component), averaged over the
+  batch. As a norm it weighs against L_gan and L_harmo at the paper's λ_mse = λ_gan = 1e-3 the way
+  Eq. 20 implies; a per-element mean would be ~10³ times smaller and leave the adversarial stage
+  without a pose anchor (momu measured the generator's poses exploding in recurrent generation);
+* :func:`feature_loss` (Eq. 15) — ``‖φ(V) − φ(V′)‖₂`` with a **stand-in for VGG**: ImageNet VGG on
+  rendered poses cannot be loaded offline, so φ is kinematic (the per-frame velocities and
+  accelerations of every joint). It is not VGG.
 """
 
 from __future__ import annotations
@@ -41,16 +45,21 @@ __all__ = ["kl_loss", "mse_loss", "feature_loss", "PretrainStage", "AdversarialS
 
 
 def kl_loss(pred_2d: torch.Tensor, true_2d: torch.Tensor, temperature: float) -> torch.Tensor:
-    """HarmoGAN Eq. 13: ``KL(P(V_2d) ‖ P(V′_2d))``, P = softmax of a frame's flattened 2D coordinates / τ."""
+    """HarmoGAN Eq. 13: ``KL(P(V_2d) ‖ P(V′_2d))`` of each sequence (frames' KLs summed), batch mean."""
     b, t = true_2d.shape[:2]
     p_log = F.log_softmax(true_2d.reshape(b, t, -1) / temperature, dim=-1)
     q_log = F.log_softmax(pred_2d.reshape(b, t, -1) / temperature, dim=-1)
-    return (p_log.exp() * (p_log - q_log)).sum(-1).mean()
+    return (p_log.exp() * (p_log - q_log)).sum((-2, -1)).mean()
+
+
+def _norm(x: torch.Tensor) -> torch.Tensor:
+    """Per-item L2 norm over every axis but the batch (ε inside the root: a finite gradient at 0)."""
+    return (x.reshape(x.shape[0], -1).pow(2).sum(-1) + 1e-12).sqrt()
 
 
 def mse_loss(pred: torch.Tensor, true: torch.Tensor) -> torch.Tensor:
-    """HarmoGAN Eq. 14 (called MSE in the paper): mean squared error of the 3D poses."""
-    return F.mse_loss(pred, true)
+    """HarmoGAN Eq. 14 as written: ``‖V − G(A_f, V_f)‖₂`` per sequence, averaged over the batch."""
+    return _norm(pred - true).mean()
 
 
 def _kinematics(motion: torch.Tensor) -> torch.Tensor:
@@ -60,8 +69,9 @@ def _kinematics(motion: torch.Tensor) -> torch.Tensor:
 
 
 def feature_loss(pred: torch.Tensor, true: torch.Tensor) -> torch.Tensor:
-    """Stand-in for HarmoGAN Eq. 15 (VGG features): MSE of per-joint velocities and accelerations."""
-    return F.mse_loss(_kinematics(pred), _kinematics(true))
+    """HarmoGAN Eq. 15 with a kinematic stand-in for VGG: ``‖φ(V) − φ(V′)‖₂`` per sequence, batch mean,
+    φ = per-joint velocities and accelerations."""
+    return _norm(_kinematics(pred) - _kinematics(true)).mean()
 
 
 def _l2(module: nn.Module) -> torch.Tensor:
