@@ -17,8 +17,8 @@ Per frame ``t`` of a meter unit:
    transition index TI) → ``pose_blocks`` dense blocks; both concatenated → a GRU (``gru_layers``,
    bidirectional by default: a unit's music is known in full) → latent ``L_t``; dropout ``p`` at the
    end of encoding.
-2. **Decoding**: ``[L_t ⊕ z′]`` (a second noise vector at the beginning of decoding) → ``decoder_blocks`` dense
-   blocks → dropout → a linear layer to ``V′_2d,t`` (J × 2; with ``residual`` it is added to V_f's
+2. **Decoding**: ``[L_t ⊕ z′]`` (a second noise vector at the beginning of decoding) → ``decoder_blocks``
+   dense blocks → dropout → a linear layer to ``V′_2d,t`` (J × 2; with ``residual`` it is added to V_f's
    x, y: the decoder predicts the motion relative to the unit's initial poses).
 3. **Depth lifting**: ``[V′_2d,t ⊕ L_t]`` → ``lifting_blocks`` dense blocks → a linear layer to the
    depth ``z′_t`` (J values; plus V_f's depth with ``residual``); ``V′_t = (x′, y′, z′)``, so V′_2d is
