@@ -91,13 +91,21 @@ MOFUSION_RECIPES = (
     "mofusion_table2",
 )
 """Every MoFusion recipe, in run order (supp. Table 2 reuses supp. Table 1's models)."""
+HARMOGAN_RECIPES = ("harmogan_table1", "harmogan_table2", "harmogan_fig12", "harmogan_fig9", "harmogan_fig11")
+"""Every HarmoGAN recipe, in the order `reproduce` runs them (all share <work>/harmogan_shared)."""
+HARMOGAN_DATA = os.environ.get("MOMU_DWM_ROOT", "../shared/data/dance_with_melody")
+"""The real Dance with Melody subset HarmoGAN's reproductions train on (`MOMU_DWM_ROOT` overrides)."""
 
-RECIPES = MOMU_RECIPES + MOFUSION_RECIPES
+RECIPES = MOMU_RECIPES + MOFUSION_RECIPES + HARMOGAN_RECIPES
+JOBS = os.environ.get("MOMU_REPRODUCE_JOBS", "2")
+"""Single-thread row/seed workers of `reproduce` (`--jobs`; the numbers do not depend on it)."""
 
 
 @nox.session(python=PYTHON, default=False)
 def reproduce(session: nox.Session) -> None:
-    """Regenerate reproductions/<table>/ of every MoMu / MoFusion recipe (`cpu` preset, synthetic data).
+    """Regenerate reproductions/<table>/ of every recipe at the `cpu` preset: MoMu and MoFusion on
+    synthetic data, HarmoGAN on the real Dance with Melody subset (`MOMU_DWM_ROOT`, default
+    ../shared/data/dance_with_melody).
 
     Non-default (hours on a 2-core CPU). `nox -s reproduce -- momu_table2 momu_table5` runs a subset.
     Every recipe writes into one work folder (outputs/reproduce/, git-ignored), so shared
@@ -113,8 +121,9 @@ def reproduce(session: nox.Session) -> None:
     work = Path("outputs") / "reproduce"
     env = {"WANDB_MODE": "disabled", "HF_HUB_OFFLINE": "1", "PYTHONHASHSEED": "0"}
     for table in session.posargs or RECIPES:
-        args = [f"recipes/{table}.py", "--preset", "cpu", "--data", "synth", "--out", str(work)]
-        args += ["--tracker", "none"]
+        data = HARMOGAN_DATA if table in HARMOGAN_RECIPES else "synth"  # HarmoGAN trains on the real subset
+        args = [f"recipes/{table}.py", "--preset", "cpu", "--data", data, "--out", str(work)]
+        args += ["--tracker", "none", "--jobs", JOBS]  # 3 seeds (the cpu preset's default), rows in parallel
         session.run("python", *args, env=env)
         command = "python " + " ".join(args)
         dst = str(Path("reproductions") / table)

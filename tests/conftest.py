@@ -9,6 +9,8 @@ import pytest
 import torch
 from hypothesis import HealthCheck, settings
 
+from tests.helpers.shared_data import shared_data_dir
+
 os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
@@ -25,10 +27,7 @@ torch.set_num_threads(int(os.environ.get("MOMU_TEST_THREADS", "1")))
 # ... and the runs the tests start (make_accelerator sets the count from MOMU_NUM_THREADS)
 os.environ.setdefault("MOMU_NUM_THREADS", os.environ.get("MOMU_TEST_THREADS", "1"))
 
-# The real-data folder beside the project root; MOMU_SHARED_DATA points elsewhere (e.g. from a worktree).
-SHARED_DATA = Path(
-    os.environ.get("MOMU_SHARED_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data"
-)
+SHARED_DATA = shared_data_dir()  # ../shared/data beside the checkout (or the main checkout of a worktree)
 
 
 def _cuda_available() -> bool:

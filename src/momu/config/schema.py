@@ -13,7 +13,14 @@ from typing import Any, Optional
 
 from momu.engine.trainer import TrainConfig
 
-__all__ = ["RecipeConfig", "RealDataConfig", "SubsetConfig", "LengthsConfig"]
+__all__ = [
+    "RecipeConfig",
+    "RealDataConfig",
+    "SubsetConfig",
+    "LengthsConfig",
+    "DanceDataConfig",
+    "BallroomConfig",
+]
 
 
 @dataclass
@@ -49,6 +56,30 @@ class LengthsConfig:
 
 
 @dataclass
+class DanceDataConfig:
+    """``dance``: HarmoGAN's training and test dances (``--data DIR`` sets ``root``).
+
+    Attributes:
+        root: the real Dance with Melody folder; ``None`` reads ``synth_dataset``.
+        real_dataset, synth_dataset: the two dataset nodes.
+    """
+
+    root: Optional[str] = None  # noqa: UP045
+    real_dataset: Any = None
+    synth_dataset: Any = None
+
+
+@dataclass
+class BallroomConfig:
+    """``ballroom``: the Ballroom test music of HarmoGAN Tables I–II (§V-A: ``fraction`` of each genre)."""
+
+    root: Optional[str] = None  # noqa: UP045
+    dataset: Any = None
+    fraction: float = 0.1
+    seed: int = 0
+
+
+@dataclass
 class RecipeConfig:
     """Top-level keys of a recipe config (``recipes/configs/momu.yaml``, ``momu_tables.yaml``).
 
@@ -61,6 +92,9 @@ class RecipeConfig:
         learnable_encoder, learnable_train, learnable_frames_per_latent: Tables 3–4's learnable
             motion encoder, its training stage and the motion frames it sees per latent frame.
         lengths: MoFusion's generation lengths (:class:`LengthsConfig`).
+        dance, ballroom: HarmoGAN's data (:class:`DanceDataConfig`, :class:`BallroomConfig`).
+        calibration_row, fig11_perturbations: set by HarmoGAN's calibration rows and Fig. 11's rows
+            (:mod:`momu.methods.harmogan.evaluate`).
     """
 
     seed: int = 0
@@ -73,3 +107,7 @@ class RecipeConfig:
     learnable_train: Optional[TrainConfig] = None  # noqa: UP045
     learnable_frames_per_latent: int = 1
     lengths: Optional[LengthsConfig] = None  # noqa: UP045
+    dance: Optional[DanceDataConfig] = None  # noqa: UP045
+    ballroom: Optional[BallroomConfig] = None  # noqa: UP045
+    calibration_row: Optional[str] = None  # noqa: UP045
+    fig11_perturbations: Any = None

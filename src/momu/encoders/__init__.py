@@ -5,6 +5,8 @@ from momu.encoders import (  # noqa: F401
     clip_text,
     directional_vector,
     discriminator,
+    harmogan_discriminators,
+    harmogan_generator,
     learnable_motion,
     mfcc,
     text_transformer,

@@ -1,3 +1,3 @@
 """Built-in losses; importing this package registers them in momu.registry.LOSSES."""
 
-from momu.losses import diffusion, gan, rhythmic_contrastive, scheduled_kinematic, vae  # noqa: F401
+from momu.losses import diffusion, gan, harmony, rhythmic_contrastive, scheduled_kinematic, vae  # noqa: F401

@@ -26,12 +26,23 @@ Choices where the paper is silent (documented in docs/metrics_beats.md):
   ``M' ≥ N'``; with fewer visual than audio beats ``h_v`` can exceed 1 and so can ``h``.
 * **Empty sets**: no salient audio beat (e.g. silence) → :class:`EmptyBeatsError` (nothing to be in
   harmony with); no salient visual beat (e.g. static motion) → ``h = 0`` and hit rate 0.
+
+The registered metrics (:class:`HarmonyMetric`) score a clip's motion against **its audio cut to the
+motion's duration** (beats after the motion ends would count as misses), and, with
+``window_seconds`` set, in consecutive windows of that length (HarmoGAN's 6-s Ballroom clips, §V-A),
+each window evaluated as a clip of its own (:func:`clip_windows`); a clip's value is the mean over its
+windows. Because the saliency normalisation and both masks are relative to the evaluated clip, ``h``
+depends on the clip length (docs/papers/harmogan.md, "What the harmony score can and cannot show").
+
+The differentiable surrogate :mod:`momu.losses.harmony` (HarmoGAN Eq. 16) reuses the audio side
+(:func:`salient_audio_beats`) and Eq. 11 (:func:`combine_harmony`) from here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import librosa
 import numpy as np
@@ -49,7 +60,11 @@ __all__ = [
     "audio_beats",
     "motion_beats_harmogan",
     "saliency_mask",
+    "salient_audio_beats",
+    "combine_harmony",
     "visual_saliency_star",
+    "clip_windows",
+    "clip_harmony",
     "harmony_from_beats",
     "harmony",
     "harmony_score",
@@ -121,6 +136,37 @@ def saliency_mask(saliency: np.ndarray, lam: float) -> np.ndarray:
     return (s - lam * np.std(s)) > 0
 
 
+def salient_audio_beats(
+    audio_times: np.ndarray, audio_saliency: np.ndarray, lambda1: float = 0.1, normalize_saliency: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """HarmoGAN Eq. 4 and 7: the salient audio beats ``B'_a`` and their saliencies ``S'_a``.
+
+    ``S'_a`` is divided by the largest saliency of *all* the clip's audio beats when
+    ``normalize_saliency`` (momu's choice for Eq. 10, module docstring).
+
+    Raises:
+        EmptyBeatsError: no audio beat, or none survives the λ1 mask.
+    """
+    ta = as_times(audio_times, "audio_times")
+    sa = np.asarray(audio_saliency, dtype=np.float64).reshape(-1)
+    if ta.size != sa.size:
+        raise ValueError("salient_audio_beats: each audio beat needs exactly one saliency value")
+    if not np.all(np.isfinite(sa)) or np.any(sa < 0):
+        raise ValueError("salient_audio_beats: saliencies must be finite and >= 0")
+    if ta.size == 0:
+        raise EmptyBeatsError("harmony: the music has no audio beats (silence?); h is undefined")
+    keep = saliency_mask(sa, lambda1)
+    if not keep.any():
+        raise EmptyBeatsError("harmony: no salient audio beat survives the λ1 mask (Eq. 4)")
+    kept = sa[keep] / sa.max() if normalize_saliency else sa[keep]
+    return ta[keep], kept
+
+
+def combine_harmony(h_s: Any, n_audio: Any, n_visual: Any, beta: float = 2.0) -> Any:
+    """HarmoGAN Eq. 11: ``h = (1 + β²) h_s / (N' β² + M')`` (floats, arrays or torch tensors alike)."""
+    return (1 + beta**2) * h_s / (n_audio * beta**2 + n_visual)
+
+
 def harmony_from_beats(
     audio_times: np.ndarray,
     audio_saliency: np.ndarray,
@@ -146,23 +192,14 @@ def harmony_from_beats(
     Raises:
         EmptyBeatsError: no (salient) audio beat.
     """
-    ta, sa = as_times(audio_times, "audio_times"), np.asarray(audio_saliency, dtype=np.float64).reshape(-1)
     tv, sv = as_times(visual_times, "visual_times"), np.asarray(visual_saliency, dtype=np.float64).reshape(-1)
-    if ta.size != sa.size or tv.size != sv.size:
+    if tv.size != sv.size:
         raise ValueError("harmony_from_beats: each beat needs exactly one saliency value")
-    if not (np.all(np.isfinite(sa)) and np.all(np.isfinite(sv))) or np.any(sa < 0) or np.any(sv < 0):
+    if not np.all(np.isfinite(sv)) or np.any(sv < 0):
         raise ValueError("harmony_from_beats: saliencies must be finite and >= 0")
     if t_delay <= 0 or beta <= 0:
         raise ValueError(f"t_delay and beta must be > 0, got t_delay={t_delay}, beta={beta}")
-    if ta.size == 0:
-        raise EmptyBeatsError("harmony: the music has no audio beats (silence?); h is undefined")
-    keep_a = saliency_mask(sa, lambda1)
-    if not keep_a.any():
-        raise EmptyBeatsError("harmony: no salient audio beat survives the λ1 mask (Eq. 4)")
-    sa_kept = sa[keep_a]
-    if normalize_saliency:
-        sa_kept = sa_kept / sa.max()
-    ba = ta[keep_a]
+    ba, sa_kept = salient_audio_beats(audio_times, audio_saliency, lambda1, normalize_saliency)
     bv = tv[saliency_mask(visual_saliency_star(sv, j_initial), lambda2)]
     n_a, n_v = int(ba.size), int(bv.size)
     if n_v:
@@ -174,7 +211,7 @@ def harmony_from_beats(
     else:
         hp = np.zeros(n_a, dtype=bool)
     h_s = float(np.sum(sa_kept[hp]))
-    h = (1 + beta**2) * h_s / (n_a * beta**2 + n_v)
+    h = combine_harmony(h_s, n_a, n_v, beta)
     return HarmonyResult(
         h=float(h),
         h_s=h_s,
@@ -240,6 +277,9 @@ class HarmonyConfig:
         lambda1: audio saliency threshold (Eq. 4). lambda2: visual saliency threshold (Eq. 6).
         t_delay: perceptual delay in seconds (Eq. 9). beta: balance of Eq. 11.
         normalize_saliency: divide audio saliencies by the clip's maximum.
+        window_seconds: evaluate in consecutive windows of this length (HarmoGAN's Ballroom protocol
+            uses 6-s clips, §V-A) and average them per clip; ``None``: the whole clip. The audio is cut
+            to the motion's duration either way.
     """
 
     lambda1: float = 0.1
@@ -247,24 +287,59 @@ class HarmonyConfig:
     t_delay: float = 0.25
     beta: float = 2.0
     normalize_saliency: bool = True
+    window_seconds: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.window_seconds is not None and not self.window_seconds > 0:
+            raise ValueError(f"harmony: window_seconds must be > 0 or null, got {self.window_seconds}")
 
 
-class HarmonyMetric(ClipMetric):
-    """Registered ``harmony`` / ``hit_rate``: mean over the generated clips (motion vs the clip's music)."""
+def clip_windows(
+    audio: np.ndarray, sr: int, motion: np.ndarray, fps: float, window_seconds: float | None = None
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(audio, motion)`` pieces a clip is evaluated on: its audio cut to the motion's duration, or
+    consecutive windows of ``window_seconds`` (``round(window_seconds · fps)`` frames each, the tail shorter
+    than a window dropped; a clip shorter than one window is one piece).
 
-    score_field: str = "h"
+    Window ``k`` holds motion frames ``[kF, (k+1)F)`` and the audio samples of the same seconds, so both
+    modalities start at t = 0 in every piece, as :func:`harmony` expects.
+    """
+    frames = int(np.asarray(motion).shape[0])
+    wave = np.asarray(audio)
+    samples = wave.shape[-1]
+    per_frame = float(sr) / float(fps)
+    if window_seconds is None or frames < int(round(window_seconds * fps)):
+        end = min(samples, int(round(frames * per_frame)))
+        return [(wave[..., :end], np.asarray(motion))]
+    width = int(round(window_seconds * fps))
+    pieces = []
+    for k in range(frames // width):
+        a0, a1 = int(round(k * width * per_frame)), int(round((k + 1) * width * per_frame))
+        if a1 > samples:
+            break
+        pieces.append((wave[..., a0:a1], np.asarray(motion)[k * width : (k + 1) * width]))
+    return pieces or [(wave[..., : min(samples, int(round(frames * per_frame)))], np.asarray(motion))]
 
-    def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
-        cfg: HarmonyConfig = self.cfg
-        values = []
-        for clip in self._require(generated):
-            motion = clip_motion(clip, self.name)
-            audio, sr = clip_audio(clip, self.name)
-            try:
-                result = harmony(
-                    audio,
+
+def clip_harmony(
+    clip: Clip, cfg: HarmonyConfig | None = None, metric: str = "harmony"
+) -> list[HarmonyResult]:
+    """:func:`harmony` of every piece of ``clip`` (:func:`clip_windows`), with ``cfg``'s parameters.
+
+    Raises:
+        ValueError: the clip has no motion or audio, or a piece has no audio beat (named by clip id).
+    """
+    cfg = cfg or HarmonyConfig()
+    motion = clip_motion(clip, metric)
+    audio, sr = clip_audio(clip, metric)
+    results = []
+    for k, (wave, pose) in enumerate(clip_windows(audio, sr, motion, clip.fps, cfg.window_seconds)):
+        try:
+            results.append(
+                harmony(
+                    wave,
                     sr,
-                    motion,
+                    pose,
                     clip.fps,
                     lambda1=cfg.lambda1,
                     lambda2=cfg.lambda2,
@@ -272,10 +347,32 @@ class HarmonyMetric(ClipMetric):
                     beta=cfg.beta,
                     normalize_saliency=cfg.normalize_saliency,
                 )
-            except ValueError as exc:
-                raise type(exc)(f"{self.name}: clip {clip.id!r}: {exc}") from None
-            values.append(getattr(result, self.score_field))
-        return {self.name: float(np.mean(values))}
+            )
+        except ValueError as exc:
+            where = f" window {k}" if cfg.window_seconds is not None else ""
+            raise type(exc)(f"{metric}: clip {clip.id!r}{where}: {exc}") from None
+    return results
+
+
+class HarmonyMetric(ClipMetric):
+    """Registered ``harmony`` / ``hit_rate``: mean over the generated clips of each clip's mean over its
+    pieces (:func:`clip_harmony`; motion vs the clip's music cut to the motion)."""
+
+    score_field: str = "h"
+
+    def per_clip(self, generated: Sequence[Clip]) -> np.ndarray:
+        """``(N,)`` per-clip values (each the mean over the clip's windows)."""
+        cfg: HarmonyConfig = self.cfg
+        return np.asarray(
+            [
+                np.mean([getattr(r, self.score_field) for r in clip_harmony(clip, cfg, self.name)])
+                for clip in self._require(generated)
+            ],
+            dtype=np.float64,
+        )
+
+    def __call__(self, generated: Sequence[Clip], reference: Sequence[Clip] | None = None) -> MetricResult:
+        return {self.name: float(np.mean(self.per_clip(generated)))}
 
 
 @METRICS.register("harmony", config=HarmonyConfig)
