@@ -17,6 +17,9 @@ not to change the numbers beyond a tolerance:
   only when the run is on CUDA (pinning does nothing useful for a CPU run), workers kept alive
   across epochs only when there are workers.
 
+:class:`StepMeter` keeps the training loop free of host-device synchronisation between logging
+steps (always on; it changes no number).
+
 Which of them are part of a stage's key is decided in :mod:`momu.engine.trainer`
 (``WEIGHT_NEUTRAL_FIELDS``, ``KEYED_WHEN_SET``).
 """
@@ -24,7 +27,7 @@ Which of them are part of a stage's key is decided in :mod:`momu.engine.trainer`
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
@@ -43,6 +46,7 @@ __all__ = [
     "fused_supported",
     "loader_options",
     "validate_fast_paths",
+    "StepMeter",
 ]
 
 log = logging.getLogger(__name__)
@@ -147,3 +151,43 @@ def loader_options(cfg: TrainConfig, device: torch.device) -> dict[str, Any]:
         "pin_memory": bool(cfg.pin_memory and device.type == "cuda"),
         "persistent_workers": bool(cfg.persistent_workers and workers > 0),
     }
+
+
+class StepMeter:
+    """Running sums of the logged values and the first non-finite loss, kept on the device.
+
+    Nothing here reads a tensor back to the host except :meth:`check` and :meth:`take`, which the
+    loop calls at logging and checkpoint steps only: a training step on a GPU launches its kernels
+    without waiting for the previous step (docs/performance.md, "no host-device syncs").
+    """
+
+    def __init__(self) -> None:
+        self.sums: dict[str, torch.Tensor | float] = {}
+        self.bad: tuple[torch.Tensor, torch.Tensor] | None = None  # (first bad step or -1, its loss)
+
+    def watch(self, loss: torch.Tensor, step: int) -> None:
+        """Remember ``step`` if ``loss`` is the first non-finite loss (no sync)."""
+        value = loss.detach().float()
+        if self.bad is None:
+            self.bad = (torch.full((), -1, dtype=torch.long, device=value.device), value.clone())
+        first, _ = self.bad
+        new = ~torch.isfinite(value) & (first < 0)
+        self.bad = (torch.where(new, step, first), torch.where(new, value, self.bad[1]))
+
+    def check(self, name: str) -> None:
+        """Raise ``FloatingPointError`` if a loss since the stage's start was NaN or infinite."""
+        if self.bad is not None and int(self.bad[0]) >= 0:
+            raise FloatingPointError(
+                f"stage {name!r}: loss is {float(self.bad[1])} at step {int(self.bad[0])}"
+            )
+
+    def add(self, logs: Mapping[str, float | torch.Tensor]) -> None:
+        for key, value in logs.items():
+            v = value.detach().float() if isinstance(value, torch.Tensor) else float(value)
+            self.sums[key] = self.sums.get(key, 0.0) + v
+
+    def take(self) -> dict[str, float]:
+        """The sums as floats (one read-back), then reset."""
+        out = {k: float(v) for k, v in self.sums.items()}
+        self.sums = {}
+        return out

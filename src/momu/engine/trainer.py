@@ -12,6 +12,11 @@ checkpoint or the new one, never a half-written folder that resume would trust. 
 reports incomplete folders, and refuses to start over silently when a checkpoint folder exists
 but holds no complete checkpoint.
 
+Fast paths (:mod:`momu.engine.fast_paths`, docs/performance.md): SDPA kernel choice, ``torch.compile``
+of the backbones, fused AdamW, pinned / persistent data loading, each a field of
+:class:`TrainConfig`; and no host-device synchronisation between logging steps (losses, logs and the
+finiteness check stay on the device until a logging or checkpoint step).
+
 Resume is exact: a run interrupted after step ``k`` and resumed from its checkpoint ends with the
 same weights as an uninterrupted run, because the checkpoint holds the model, the optimizer, every
 process's RNG states and the step, and the data order of epoch ``e`` is a pure function of
@@ -42,6 +47,7 @@ from tqdm.auto import tqdm
 
 from momu.engine.accelerate_setup import define_stage_axis
 from momu.engine.fast_paths import (
+    StepMeter,
     attention_kernels,
     compile_backbones,
     loader_options,
@@ -290,46 +296,6 @@ def _load(accelerator: Accelerator, checkpoint: Path, model: nn.Module, optimize
     return int(meta["step"])
 
 
-class _StepMeter:
-    """Running sums of the logged values and the first non-finite loss, kept on the device.
-
-    Nothing here reads a tensor back to the host except :meth:`check` and :meth:`take`, which the
-    loop calls at logging and checkpoint steps only: a training step on a GPU launches its kernels
-    without waiting for the previous step (docs/performance.md, "no host-device syncs").
-    """
-
-    def __init__(self) -> None:
-        self.sums: dict[str, torch.Tensor | float] = {}
-        self.bad: tuple[torch.Tensor, torch.Tensor] | None = None  # (first bad step or -1, its loss)
-
-    def watch(self, loss: torch.Tensor, step: int) -> None:
-        """Remember ``step`` if ``loss`` is the first non-finite loss (no sync)."""
-        value = loss.detach().float()
-        if self.bad is None:
-            self.bad = (torch.full((), -1, dtype=torch.long, device=value.device), value.clone())
-        first, _ = self.bad
-        new = ~torch.isfinite(value) & (first < 0)
-        self.bad = (torch.where(new, step, first), torch.where(new, value, self.bad[1]))
-
-    def check(self, name: str) -> None:
-        """Raise ``FloatingPointError`` if a loss since the stage's start was NaN or infinite."""
-        if self.bad is not None and int(self.bad[0]) >= 0:
-            raise FloatingPointError(
-                f"stage {name!r}: loss is {float(self.bad[1])} at step {int(self.bad[0])}"
-            )
-
-    def add(self, logs: Mapping[str, float | torch.Tensor]) -> None:
-        for key, value in logs.items():
-            v = value.detach().float() if isinstance(value, torch.Tensor) else float(value)
-            self.sums[key] = self.sums.get(key, 0.0) + v
-
-    def take(self) -> dict[str, float]:
-        """The sums as floats (one read-back), then reset."""
-        out = {k: float(v) for k, v in self.sums.items()}
-        self.sums = {}
-        return out
-
-
 LR_SCHEDULES = ("constant", "cosine")
 
 
@@ -420,7 +386,7 @@ def train_stage(
         total=cfg.steps, initial=step, desc=name, disable=not accelerator.is_local_main_process, leave=False
     )
     model.train()
-    meter = _StepMeter()
+    meter = StepMeter()
     last_save = time.monotonic()
     with _sigterm_flag() as flag, attention_kernels(cfg.attention):
         while step < cfg.steps:
