@@ -14,50 +14,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import torch
-from torch.utils.flop_counter import FlopCounterMode
+from perf_common import matmul_peak, step_flops_and_time  # benchmarks/perf_common.py
 
 from momu.config import build_component
 from momu.engine.table import parse_table_args, resolve_row_configs
 from momu.methods.momu.config import backbone_node
 from momu.methods.momu.recipes import table7_spec
 from momu.methods.momu.stages import DiffusionStage
-
-
-def matmul_peak(n: int = 512, seconds: float = 2.0) -> float:
-    """Dense fp32 ``n × n`` matmul FLOP/s of this thread (best of short bursts)."""
-    a, b = torch.randn(n, n), torch.randn(n, n)
-    best = 0.0
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        t0 = time.process_time()
-        for _ in range(10):
-            a @ b
-        dt = max(time.process_time() - t0, 1e-9)
-        best = max(best, 10 * 2 * n**3 / dt)
-    return best
-
-
-def step_flops_and_time(module: torch.nn.Module, step, repeats: int = 10) -> tuple[float, float]:
-    """FLOPs of one ``step()`` (forward + backward) and its mean CPU seconds."""
-    params = [p for p in module.parameters() if p.requires_grad]
-    opt = torch.optim.AdamW(params, lr=1e-4)
-    for _ in range(2):
-        step().backward()
-        opt.step()
-        opt.zero_grad()
-    with FlopCounterMode(display=False) as counter:
-        step().backward()
-    opt.zero_grad()
-    t0 = time.process_time()
-    for _ in range(repeats):
-        step().backward()
-        opt.step()
-        opt.zero_grad()
-    return float(counter.get_total_flops()), (time.process_time() - t0) / repeats
 
 
 def main() -> None:

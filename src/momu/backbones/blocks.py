@@ -3,8 +3,9 @@ transformer blocks, masked group normalisation and the backbone-call argument ch
 
 Sequences are channels-last ``(B, T, C)`` unless a docstring says otherwise. Masks are boolean
 with ``True`` = valid frame. Attention goes through :func:`torch.nn.functional.scaled_dot_product_attention`
-with a boolean key mask, so padded keys receive exactly zero weight and a padded frame can never
-change a valid one.
+with a boolean ``(B, 1, 1, Lk)`` key mask, so padded keys receive exactly zero weight and a padded
+frame can never change a valid one; a caller that knows every key is valid passes no mask, which
+lets SDPA pick its flash kernel on a GPU (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -212,6 +213,9 @@ def lengths_from_mask(mask: Tensor) -> Tensor:
 def check_prefix_mask(mask: Tensor, name: str) -> Tensor:
     """Check that ``mask`` (B, T) is boolean, valid frames first then padding; returns the lengths.
 
+    Inside a :func:`torch.compile` graph (``train.compile``) only dtype and shape are checked: the
+    value checks read the mask back from the device and would split the graph.
+
     Raises:
         ValueError: naming ``name`` when the mask is not boolean, has an empty row, or has a
             valid frame after a padded one.
@@ -221,6 +225,8 @@ def check_prefix_mask(mask: Tensor, name: str) -> Tensor:
             f"{name}: expected a (B, T) bool mask (True = valid), got {mask.dtype} {tuple(mask.shape)}"
         )
     lengths = lengths_from_mask(mask)
+    if torch.compiler.is_compiling():  # value checks read the device: skipped in compiled graphs
+        return lengths
     if bool((lengths == 0).any()):
         raise ValueError(f"{name}: every item needs at least one valid frame")
     expected = torch.arange(mask.shape[1], device=mask.device)[None, :] < lengths[:, None]
@@ -239,7 +245,10 @@ def check_backbone_inputs(
     in_channels: int,
     cond_channels: int,
 ) -> None:
-    """Validate one call of the backbone protocol (docs/protocols.md); errors name the argument."""
+    """Validate one call of the backbone protocol (docs/protocols.md); errors name the argument.
+
+    Inside a :func:`torch.compile` graph the finiteness checks are skipped (they synchronise).
+    """
     if x.ndim != 3 or x.shape[-1] != in_channels:
         raise ValueError(f"x: expected (B, T, {in_channels}), got {tuple(x.shape)}")
     b, length = x.shape[:2]
@@ -268,6 +277,8 @@ def check_backbone_inputs(
         raise ValueError(
             f"drop_cond: expected a ({b},) bool tensor, got {drop_cond.dtype} {tuple(drop_cond.shape)}"
         )
+    if torch.compiler.is_compiling():  # the value checks below would break the graph
+        return
     if not torch.is_floating_point(x) or not bool(torch.isfinite(x).all()):
         raise ValueError("x: must be a finite floating-point tensor")
     if cond is not None and not bool(torch.isfinite(cond).all()):
@@ -312,7 +323,7 @@ def condition_tokens(
         if cond_mask is not None
         else torch.ones(cond.shape[:2], dtype=torch.bool, device=ref.device)
     )
-    if drop_cond is not None and bool(drop_cond.any()):
+    if drop_cond is not None:  # no `drop_cond.any()` test: that would wait for the device
         first = torch.zeros_like(mask)
         first[:, 0] = True
         drop = drop_cond[:, None]

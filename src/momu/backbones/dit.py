@@ -186,6 +186,7 @@ class DiT(nn.Module):
         check_backbone_inputs(x, t, cond, x_mask, cond_mask, drop_cond, self.in_channels, self.cond_channels)
         b, length, _ = x.shape
         dev = x.device
+        x_mask_given = x_mask
         if x_mask is None:
             x_mask = torch.ones(b, length, dtype=torch.bool, device=dev)
         len_x = check_prefix_mask(x_mask, "x_mask")
@@ -217,7 +218,7 @@ class DiT(nn.Module):
         total = len_x + len_c + 1
         aligned = self.cfg.positions == "aligned"
         needed = torch.maximum(len_x, len_c) if aligned else total
-        if int(needed.max()) > self.cfg.max_length:
+        if not torch.compiler.is_compiling() and int(needed.max()) > self.cfg.max_length:
             what = (
                 "latent or condition length"
                 if aligned
@@ -248,13 +249,19 @@ class DiT(nn.Module):
             tokens = tokens + self.segment_embed(torch.cat(seg))[None].to(tokens.dtype)
 
         capacity = 2 * self.cfg.max_length + 1 if aligned else self.cfg.max_length
-        if self.cfg.pad_to_max and tokens.shape[1] < capacity:
+        padded = self.cfg.pad_to_max and tokens.shape[1] < capacity
+        if padded:
             extra = capacity - tokens.shape[1]
             tokens = F.pad(tokens, (0, 0, 0, extra))
             mask = F.pad(mask, (0, extra), value=False)
+        # Every token valid (known without reading the mask back from the device): no attention
+        # mask at all, so SDPA may use its flash kernel (which takes none); otherwise the boolean
+        # key-padding mask, which the memory-efficient and math kernels take (docs/performance.md).
+        dense = x_mask_given is None and cond_mask is None and drop_cond is None and not padded
+        attn_mask = None if dense else mask
 
         for block in self.blocks:
-            tokens = block(tokens, mask)
+            tokens = block(tokens, attn_mask)
 
         # truncate to the latent frames and project back (MoMu §4)
         out = self.out_norm(tokens[:, :length]) * keep

@@ -40,7 +40,9 @@ class RunConfig:
     """Process-level settings of a run.
 
     Attributes:
-        mixed_precision: ``no``, ``fp16`` or ``bf16`` (bf16/fp16 need a GPU that supports them).
+        mixed_precision: ``no``, ``fp16`` or ``bf16``: accelerate's autocast of every forward pass.
+            ``bf16`` also runs on CPU (tested: a few steps stay within 5 % of fp32); ``fp16`` needs a
+            GPU. Part of every stage key (docs/performance.md).
         tracker: ``wandb`` (offline unless ``WANDB_MODE``/``wandb login`` says otherwise) or ``none``.
         project: tracker project name.
         seed: base seed; the data order uses it as is, noise uses ``seed + process index``.
@@ -117,7 +119,10 @@ def make_accelerator(
         mixed_precision=cfg.mixed_precision,
         log_with=log_with,
         project_dir=str(out_dir),
-        dataloader_config=DataLoaderConfiguration(use_seedable_sampler=True, data_seed=cfg.seed),
+        # non_blocking: host-to-GPU batch copies overlap compute (with train.pin_memory's pinned batches)
+        dataloader_config=DataLoaderConfiguration(
+            use_seedable_sampler=True, data_seed=cfg.seed, non_blocking=torch.cuda.is_available()
+        ),
         gradient_accumulation_plugin=GradientAccumulationPlugin(num_steps=1, sync_with_dataloader=False),
     )
     if log_with is not None:

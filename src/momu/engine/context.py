@@ -33,7 +33,13 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
-from momu.engine.trainer import WEIGHT_NEUTRAL_FIELDS, LossFn, TrainConfig, train_stage
+from momu.engine.trainer import (
+    WEIGHT_NEUTRAL_FIELDS,
+    LossFn,
+    TrainConfig,
+    train_stage,
+    without_later_defaults,
+)
 from momu.io import read_json, write_json
 from momu.weights_io import write_safetensors
 
@@ -75,8 +81,11 @@ def _without_neutral(node: Any) -> Any:
 
 
 def stage_identity(key: Mapping[str, Any], accelerator: Accelerator, cfg: TrainConfig) -> dict[str, Any]:
-    """The key naming a stage's folder: the method's key (less weight-neutral fields) + :func:`run_facts`."""
-    return {**_without_neutral(dict(key)), "run": run_facts(accelerator, cfg)}
+    """The key naming a stage's folder: the method's key (less weight-neutral fields) + :func:`run_facts`.
+
+    Fast-path fields at their defaults are left out too (:func:`~momu.engine.trainer.without_later_defaults`).
+    """
+    return {**_without_neutral(without_later_defaults(dict(key))), "run": run_facts(accelerator, cfg)}
 
 
 @dataclass

@@ -35,6 +35,7 @@ from omegaconf import DictConfig
 from momu.config import to_container
 from momu.engine.context import RunContext
 from momu.engine.scores import Scores, as_scores
+from momu.engine.trainer import without_later_defaults
 from momu.io import write_json
 
 __all__ = [
@@ -71,7 +72,9 @@ class Unit:
 
 
 def _config_hash(cfg: DictConfig, seed: int) -> str:
-    text = json.dumps({"config": to_container(cfg), "seed": seed}, sort_keys=True, default=str)
+    # fast-path fields at their defaults are left out: cells cached before they existed stay valid
+    config = without_later_defaults(to_container(cfg))
+    text = json.dumps({"config": config, "seed": seed}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 
 

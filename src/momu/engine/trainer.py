@@ -12,6 +12,11 @@ checkpoint or the new one, never a half-written folder that resume would trust. 
 reports incomplete folders, and refuses to start over silently when a checkpoint folder exists
 but holds no complete checkpoint.
 
+Fast paths (:mod:`momu.engine.fast_paths`, docs/performance.md): SDPA kernel choice, ``torch.compile``
+of the backbones, fused AdamW, pinned / persistent data loading, each a field of
+:class:`TrainConfig`; and no host-device synchronisation between logging steps (losses, logs and the
+finiteness check stay on the device until a logging or checkpoint step).
+
 Resume is exact: a run interrupted after step ``k`` and resumed from its checkpoint ends with the
 same weights as an uninterrupted run, because the checkpoint holds the model, the optimizer, every
 process's RNG states and the step, and the data order of epoch ``e`` is a pure function of
@@ -20,13 +25,14 @@ process's RNG states and the step, and the data order of epoch ``e`` is a pure f
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
 import shutil
 import signal
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +46,14 @@ from torch.utils.data import DataLoader, Dataset
 from tqdm.auto import tqdm
 
 from momu.engine.accelerate_setup import define_stage_axis
+from momu.engine.fast_paths import (
+    StepMeter,
+    attention_kernels,
+    compile_backbones,
+    loader_options,
+    make_adamw,
+    validate_fast_paths,
+)
 from momu.engine.state import (
     capture_rng,
     incomplete_checkpoints,
@@ -54,11 +68,22 @@ from momu.engine.state import (
 )
 from momu.io import read_json, write_json
 
-__all__ = ["TrainConfig", "Preempted", "ResumeError", "LossFn", "train_stage", "WEIGHT_NEUTRAL_FIELDS"]
+__all__ = [
+    "TrainConfig",
+    "Preempted",
+    "ResumeError",
+    "LossFn",
+    "train_stage",
+    "WEIGHT_NEUTRAL_FIELDS",
+    "KEYED_WHEN_SET",
+    "without_later_defaults",
+]
 
 log = logging.getLogger(__name__)
 
-LossFn = Callable[[nn.Module, Any], "torch.Tensor | tuple[torch.Tensor, dict[str, float]]"]
+LossFn = Callable[[nn.Module, Any], "torch.Tensor | tuple[torch.Tensor, Mapping[str, float | torch.Tensor]]"]
+"""``loss_fn(model, batch)``: the loss, or ``(loss, logs)``; a log value may be a float or a detached
+0-d tensor (a tensor costs no host-device synchronisation: it is read only at logging steps)."""
 
 
 @dataclass
@@ -90,11 +115,58 @@ class TrainConfig:
     keep_checkpoints: int = 2  # newest checkpoints kept (0 keeps all)
     log_every: int = 25
     seed: int = 0
-    num_workers: int = 0
+    num_workers: int = 0  # DataLoader worker processes (0: load in the training process)
+    # fast paths (momu.engine.fast_paths, docs/performance.md)
+    pin_memory: bool = True  # page-locked batches, on CUDA only
+    persistent_workers: bool = False  # keep the workers alive across epochs (num_workers > 0)
+    attention: str = "auto"  # SDPA kernels allowed: auto, math, flash, efficient, cudnn
+    compile: str = "none"  # torch.compile backend of the backbones ("none": eager PyTorch)
+    fused_optimizer: bool = False  # AdamW(fused=True) where the device supports it
 
 
-WEIGHT_NEUTRAL_FIELDS = ("checkpoint_every", "checkpoint_minutes", "keep_checkpoints", "log_every")
-"""TrainConfig fields that do not change the trained weights (left out of stage keys)."""
+WEIGHT_NEUTRAL_FIELDS = (
+    "checkpoint_every",
+    "checkpoint_minutes",
+    "keep_checkpoints",
+    "log_every",
+    "pin_memory",
+)
+"""TrainConfig fields that do not change the trained weights (left out of stage keys).
+
+``num_workers`` is *not* one: a dataset that draws randomness in ``__getitem__`` (MoFusion's
+caption choice) draws it from each worker's RNG, so the worker count changes the batches.
+"""
+
+KEYED_WHEN_SET = ("persistent_workers", "attention", "compile", "fused_optimizer")
+"""TrainConfig fields added after stage keys existed: in a stage's key only when not at their default.
+
+Each may change the numbers (kernels round differently; persistent workers keep their RNG across
+epochs), so a non-default value trains its own stage; at the default they are left out, so every
+stage key written before they existed keeps its hash.
+"""
+
+_LATER_FIELDS = ("pin_memory", *KEYED_WHEN_SET)
+
+
+def without_later_defaults(node: Any) -> Any:
+    """``node`` with every TrainConfig-shaped mapping stripped of the later fields at their defaults.
+
+    Hashes of configs (stage keys, cached table cells) taken before the fast-path fields existed
+    stay the same: a mapping holding every :class:`TrainConfig` field loses ``pin_memory`` and
+    :data:`KEYED_WHEN_SET` where they are at their defaults.
+    """
+    if isinstance(node, Mapping):
+        out = {k: without_later_defaults(v) for k, v in node.items()}
+        if _TRAIN_FIELDS <= set(out):
+            out = {k: v for k, v in out.items() if not (k in _LATER_FIELDS and v == _DEFAULTS[k])}
+        return out
+    if isinstance(node, list):
+        return [without_later_defaults(v) for v in node]
+    return node
+
+
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig)}
+_TRAIN_FIELDS = set(_DEFAULTS)
 
 
 class ResumeError(RuntimeError):
@@ -276,18 +348,19 @@ def train_stage(
             f"({cfg.batch_size} per process × {accelerator.num_processes} processes)"
         )
     lr_factor(0, cfg)  # a bad schedule name fails before any work
+    validate_fast_paths(cfg)
     set_seed(cfg.seed, device_specific=True)  # seed + process index: distinct noise per process
+    model.to(accelerator.device)  # before the optimizer: fused kernels are chosen per device
+    compile_backbones(model, cfg.compile)
     params = [p for p in model.parameters() if p.requires_grad]
-    optimizer = torch.optim.AdamW(
-        params, lr=cfg.lr, betas=(cfg.beta1, cfg.beta2), weight_decay=cfg.weight_decay
-    )
+    optimizer = make_adamw(params, cfg)
     loader = DataLoader(
         dataset,
         batch_size=cfg.batch_size,
         shuffle=True,
         drop_last=True,
         collate_fn=collate_fn,
-        num_workers=cfg.num_workers,
+        **loader_options(cfg, accelerator.device),
         # Its own generator: creating an iterator must not draw from the global RNG, or a run
         # resumed mid-epoch would see different noise from the uninterrupted one.
         generator=torch.Generator().manual_seed(cfg.seed),
@@ -313,9 +386,9 @@ def train_stage(
         total=cfg.steps, initial=step, desc=name, disable=not accelerator.is_local_main_process, leave=False
     )
     model.train()
-    running: dict[str, float] = {}
+    meter = StepMeter()
     last_save = time.monotonic()
-    with _sigterm_flag() as flag:
+    with _sigterm_flag() as flag, attention_kernels(cfg.attention):
         while step < cfg.steps:
             sampler = getattr(loader, "set_epoch", None)
             if sampler is not None:
@@ -327,8 +400,7 @@ def train_stage(
                 with accelerator.accumulate(model):
                     out = loss_fn(model, batch)
                     loss, logs = out if isinstance(out, tuple) else (out, {})
-                    if not torch.isfinite(loss):
-                        raise FloatingPointError(f"stage {name!r}: loss is {loss.item()} at step {step}")
+                    meter.watch(loss, step)
                     accelerator.backward(loss)
                     if accelerator.sync_gradients and cfg.max_grad_norm > 0:
                         accelerator.clip_grad_norm_(params, cfg.max_grad_norm)
@@ -338,15 +410,14 @@ def train_stage(
                     continue
                 step += 1
                 bar.update(1)
-                for key, value in {"loss": float(loss.detach()), **logs}.items():
-                    running[key] = running.get(key, 0.0) + float(value)
+                meter.add({"loss": loss, **logs})
                 if step % cfg.log_every == 0 or step == cfg.steps:
                     count = cfg.log_every if step % cfg.log_every == 0 else step % cfg.log_every
-                    means = {f"{name}/{k}": v / count for k, v in running.items()}
+                    meter.check(name)
+                    means = {f"{name}/{k}": v / count for k, v in meter.take().items()}
                     # the tracker's own step stays monotonic across stages; each stage has its axis
                     accelerator.log({**means, f"{name}/step": step})
                     bar.set_postfix(loss=f"{means[f'{name}/loss']:.4g}")
-                    running = {}
                 due = (
                     cfg.checkpoint_minutes > 0
                     and time.monotonic() - last_save >= 60.0 * cfg.checkpoint_minutes
@@ -355,17 +426,20 @@ def train_stage(
                     accelerator, flag.stop, due
                 )  # any process that is due makes all save
                 if stop:
+                    meter.check(name)
                     raise Preempted(
                         _save(accelerator, checkpoint_root, step, model, optimizer, cfg), flag.reason
                     )
                 every = cfg.checkpoint_every and step % cfg.checkpoint_every == 0
                 if (every or due) and step < cfg.steps:
+                    meter.check(name)
                     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
                     last_save = time.monotonic()
                 if step >= cfg.steps:
                     break
             epoch, skip = epoch + 1, 0
     bar.close()
+    meter.check(name)
     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
     model.eval()
     return accelerator.unwrap_model(model)

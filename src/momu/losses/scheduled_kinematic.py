@@ -210,8 +210,12 @@ class ScheduledKinematicLoss(nn.Module):
         t: Tensor | None = None,
         noise: Tensor | None = None,
         generator: torch.Generator | None = None,
-    ) -> tuple[Tensor, dict[str, float]]:
-        """``L_t`` of Eq. 4 for a batch of standardised pose vectors ``x0 (B, T, 3J)``; and its logs."""
+    ) -> tuple[Tensor, dict[str, Tensor]]:
+        """``L_t`` of Eq. 4 for a batch of standardised pose vectors ``x0 (B, T, 3J)``; and its logs.
+
+        The logs are detached 0-d tensors, so a training step never waits for the device to read
+        them (the engine reads them back at logging steps only).
+        """
         if x0.shape[-1] != self.channels:
             raise ValueError(
                 f"x0: {x0.shape[-1]} channels, skeleton {self.cfg.skeleton!r} needs {self.channels}"
@@ -219,7 +223,7 @@ class ScheduledKinematicLoss(nn.Module):
         out = self.data_loss(
             backbone, x0, cond, x_mask=x_mask, cond_mask=cond_mask, t=t, noise=noise, generator=generator
         )
-        logs = {"l_da": float(out.loss.detach())}
+        logs = {"l_da": out.loss.detach()}
         if not self.active:
             return out.loss, logs
         k = self.terms(out, x0, x_mask)
@@ -227,10 +231,10 @@ class ScheduledKinematicLoss(nn.Module):
         l_k = k.skeleton + c.lambda_a * k.symmetry + c.lambda_m * k.x0  # (B,)
         total = out.loss + (k.weight * l_k).mean()
         logs.update(
-            l_s=float(k.skeleton.detach().mean()),
-            l_a=float(k.symmetry.detach().mean()),
-            l_m=float(k.x0.detach().mean()),
-            l_k_weighted=float((k.weight * l_k).detach().mean()),
+            l_s=k.skeleton.detach().mean(),
+            l_a=k.symmetry.detach().mean(),
+            l_m=k.x0.detach().mean(),
+            l_k_weighted=(k.weight * l_k).detach().mean(),
         )
         return total, logs
 

@@ -34,7 +34,7 @@ class MoFusionStage(nn.Module):
         self.loss = loss
         self.text_encoder = text_encoder
 
-    def forward(self, batch: dict[str, Any]) -> tuple[Tensor, dict[str, float]]:
+    def forward(self, batch: dict[str, Any]) -> tuple[Tensor, dict[str, Tensor]]:
         x = batch["x"]
         if self.text_encoder is not None:
             cond, cond_mask = encode_text(self.text_encoder, list(batch["text"]), x.device)

@@ -180,7 +180,8 @@ class DiffusionStage(nn.Module):
         lengths = torch.randint(self.min_frames, frames + 1, (batch,))
         return (torch.arange(frames)[None, :] < lengths[:, None]).to(device)
 
-    def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, float]]:
+    def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """``(L_a + L_m, logs)``; the logs are detached tensors (read back only at logging steps)."""
         z_a = self.standardise(batch["z_music"], "music")
         z_m = self.standardise(batch["z_motion"], "motion")
         mask = self.length_mask(z_a.shape[0], z_a.shape[1], z_a.device)  # aligned latents: one length
@@ -191,8 +192,8 @@ class DiffusionStage(nn.Module):
             self.motion_backbone, z_m, z_a, x_mask=mask, cond_mask=mask
         ).loss  # θ_m: music → motion
         return _with_every_parameter(self, loss_a + loss_m), {
-            "motion2music": float(loss_a.detach()),
-            "music2motion": float(loss_m.detach()),
+            "motion2music": loss_a.detach(),
+            "music2motion": loss_m.detach(),
         }
 
 
