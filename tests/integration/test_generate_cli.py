@@ -331,6 +331,9 @@ def test_what_a_method_cannot_do_fails_before_loading(
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith(f"momu generate: error: --model {folder}: "), err
         assert message in err, err
+    assert main(["generate", "text", "--caption", "a person jumps", *out]) == 2  # no shipped text model
+    err = capsys.readouterr().err
+    assert err.startswith("momu generate: error: --model DIR is needed") and err.count("\n") == 1, err
     # a dit backbone's positional table bounds the length (read from the part's config, not loaded)
     (music / "backbone").mkdir()
     (music / "backbone" / "config.json").write_text(

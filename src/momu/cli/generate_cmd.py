@@ -119,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
 def _record(args: argparse.Namespace, direction: str) -> ModelRecord:
     from momu.training import find_model
 
+    if args.model is None and direction == "text":
+        raise GenerateInputError(
+            "--model DIR is needed: momu ships no text model (train a MoFusion text model)"
+        )
     try:
         folder = find_model(args.model) if args.model is not None else default_model_dir(direction)
     except ValueError as exc:  # ConfigError: several models in a training output
