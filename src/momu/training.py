@@ -118,10 +118,14 @@ def _data_hashes(ds: Any, cfg: Any) -> dict[str, Any]:
 
 
 def find_model(folder: Path) -> Path:
-    """A model folder: ``folder`` itself, or the only ``models/*`` inside a ``momu train`` output."""
-    if (folder / "momu.json").is_file():
+    """A model folder: ``folder`` itself, or the only ``models/*`` inside a ``momu train`` output.
+
+    A model folder holds its method's record: ``momu.json``, ``mofusion.json`` or ``harmogan.json``.
+    """
+    records = ("momu.json", "mofusion.json", "harmogan.json")
+    if any((folder / name).is_file() for name in records):
         return folder
-    found = sorted(p.parent for p in (folder / "models").glob("*/momu.json"))
+    found = sorted({p.parent for name in records for p in (folder / "models").glob(f"*/{name}")})
     if len(found) == 1:
         return found[0]
     if len(found) > 1:

@@ -11,6 +11,7 @@ Each case builds its inputs under ``tmp_path``, snapshots the folder, runs the c
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -139,6 +140,21 @@ def _generate(*argv: str, model: bool = True, wav: bool = True) -> Callable[[Pat
     return setup
 
 
+def _method_model(method: str, task: str, *argv: str) -> Callable[[Path], list[str]]:
+    """``momu generate`` with a MoFusion / HarmoGAN model folder that holds only its record."""
+
+    def setup(root: Path) -> list[str]:
+        inner = _generate(*argv)(root)
+        skeleton = {"harmogan": "dwm21", "music": "smpl24", "text": "humanml22"}[
+            task if method == "mofusion" else method
+        ]
+        record = {"format": 1, "method": method, "skeleton": skeleton, "config": {"task": task}}
+        (root / "model" / f"{method}.json").write_text(json.dumps(record))
+        return inner
+
+    return setup
+
+
 def _dwm_bad(root: Path) -> list[str]:
     from tests.fixtures import layouts
 
@@ -203,6 +219,28 @@ CASES = [
         "generate-motion-unknown-type",
         _generate("music", "--motion", "ROOT/afile", "--out", "ROOT/o"),
         "afile",
+    ),
+    Case(
+        "generate-joint-with-a-harmogan-model",
+        _method_model("harmogan", "music", "joint", "--out", "ROOT/o"),
+        "--model",
+    ),
+    Case(
+        "generate-text-with-a-music-model",
+        _method_model("mofusion", "music", "text", "--caption", "a person jumps", "--out", "ROOT/o"),
+        "--model",
+    ),
+    Case(
+        "generate-dance-with-a-text-model",
+        _method_model("mofusion", "text", "dance", "--music", "ROOT/song.wav", "--out", "ROOT/o"),
+        "generate text",
+    ),
+    Case(
+        "generate-guidance-with-mofusion",
+        _method_model(
+            "mofusion", "music", "dance", "--music", "ROOT/song.wav", "--out", "ROOT/o", "--guidance", "3"
+        ),
+        "--guidance",
     ),
     # data check / data synth
     Case(

@@ -219,3 +219,142 @@ def test_short_silent_and_odd_rate_songs_warn(tmp_path: Path, caplog: pytest.Log
     loud = tmp_path / "loud.wav"
     sf.write(str(loud), _song(3.0, 16000, 1), 16000)
     assert song_warnings(read_song(loud)) == []
+
+
+# ---------------------------------------------------------------- MoFusion and HarmoGAN model folders
+
+
+@pytest.fixture(scope="module")
+def method_models(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Tiny random-weight MoFusion (music, text) and HarmoGAN model folders (built, not trained)."""
+    from tests.helpers.tiny_models import tiny_harmogan_model, tiny_mofusion_model
+
+    root = tmp_path_factory.mktemp("methods")
+    return {
+        "mofusion": tiny_mofusion_model(root / "mofusion-music", "music"),
+        "mofusion-text": tiny_mofusion_model(root / "mofusion-text", "text"),
+        "harmogan": tiny_harmogan_model(root / "harmogan"),
+    }
+
+
+@pytest.mark.parametrize(
+    ("method", "seconds", "joints", "fps", "skeleton"),
+    [("mofusion", 12.0, 24, 20.0, "smpl24"), ("harmogan", 25.0, 21, 15.0, "dwm21")],
+)
+def test_dance_from_a_mofusion_or_harmogan_model(
+    tmp_path: Path,
+    method_models: dict[str, Path],
+    method: str,
+    seconds: float,
+    joints: int,
+    fps: float,
+    skeleton: str,
+) -> None:
+    song = tmp_path / "song.wav"
+    sf.write(str(song), _song(seconds, 22050, 1), 22050)
+    out = tmp_path / "out"
+    argv = ["--model", str(method_models[method]), "--seed", "3"]
+    assert _dance(song, out, argv) == 0
+    _check_dance_outputs(out, seconds)
+    with np.load(out / "dance.npz", allow_pickle=False) as data:
+        assert data["joints"].shape[1:] == (joints, 3) and np.isfinite(data["joints"]).all()
+        assert float(data["fps"]) == fps and str(data["skeleton"]) == skeleton
+        first = data["joints"].copy()
+        assert f'"method": "{method}"' in str(data["provenance"])
+    assert _dance(song, tmp_path / "again", argv) == 0  # the same seed gives the same dance
+    with np.load(tmp_path / "again" / "dance.npz", allow_pickle=False) as data:
+        np.testing.assert_array_equal(data["joints"], first)
+
+
+def test_text_to_motion_from_a_mofusion_text_model(tmp_path: Path, method_models: dict[str, Path]) -> None:
+    out = tmp_path / "out"
+    argv = ["generate", "text", "--caption", "a person walks forward", "--seconds", "3"]
+    assert main([*argv, "--model", str(method_models["mofusion-text"]), "--out", str(out), "--quiet"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["motion.bvh", "motion.mp4", "motion.npz"]
+    info = _streams(out / "motion.mp4")
+    assert "Video: h264" in info and "Audio:" not in info  # no sound for a caption
+    with np.load(out / "motion.npz", allow_pickle=False) as data:
+        joints = data["joints"]
+        assert joints.shape == (60, 22, 3) and float(data["fps"]) == 20.0
+        assert str(data["skeleton"]) == "humanml22" and "a person walks forward" in str(data["provenance"])
+    root = bvhio.readAsHierarchy(str(out / "motion.bvh"))
+    assert root.getKeyframeRange()[1] + 1 == joints.shape[0]
+    one = tmp_path / "m.bvh"
+    assert main([*argv, "--model", str(method_models["mofusion-text"]), "--out", str(one)]) == 0
+    assert one.read_text().startswith("HIERARCHY")
+
+
+def _record_only(folder: Path, src: Path, name: str) -> Path:
+    import shutil
+
+    folder.mkdir(parents=True)
+    shutil.copy(src / name, folder / name)
+    return folder
+
+
+def test_what_a_method_cannot_do_fails_before_loading(
+    tmp_path: Path, method_models: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each model folder holds only its record (no weights): every refusal comes before any load."""
+    music = _record_only(tmp_path / "mf", method_models["mofusion"], "mofusion.json")
+    text = _record_only(tmp_path / "mt", method_models["mofusion-text"], "mofusion.json")
+    gan = _record_only(tmp_path / "hg", method_models["harmogan"], "harmogan.json")
+    song = tmp_path / "song.wav"
+    sf.write(str(song), _song(3.3, 16000, 1), 16000)
+    out = ["--out", str(tmp_path / "o")]
+    dance = ["dance", "--music", str(song), *out]
+    np.save(tmp_path / "dance.npy", np.zeros((30, 21, 3), dtype=np.float32))
+    cases = [
+        (
+            [
+                "music",
+                "--motion",
+                str(tmp_path / "dance.npy"),
+                "--skeleton",
+                "dwm21",
+                "--model",
+                str(gan),
+                *out,
+            ],
+            gan,
+            "`momu generate music` needs a MoMu model",
+        ),
+        (["joint", "--model", str(music), *out], music, "`momu generate joint` needs a MoMu model"),
+        (["text", "--caption", "a person jumps", "--model", str(music), *out], music, "MoFusion text→motion"),
+        (["text", "--caption", "a person jumps", "--model", str(gan), *out], gan, "MoFusion text→motion"),
+        ([*dance, "--model", str(text)], text, "use `momu generate text"),
+        ([*dance, "--model", str(music), "--guidance", "2"], music, "without classifier-free guidance"),
+        ([*dance, "--model", str(gan), "--guidance", "2"], gan, "--guidance is for MoMu models only"),
+    ]
+    for argv, folder, message in cases:
+        assert main(["generate", *argv]) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith(f"momu generate: error: --model {folder}: "), err
+        assert message in err, err
+    assert main(["generate", "text", "--caption", "a person jumps", *out]) == 2  # no shipped text model
+    err = capsys.readouterr().err
+    assert err.startswith("momu generate: error: --model DIR is needed") and err.count("\n") == 1, err
+    # a dit backbone's positional table bounds the length (read from the part's config, not loaded)
+    (music / "backbone").mkdir()
+    (music / "backbone" / "config.json").write_text(
+        '{"kind": "backbones", "name": "dit", "config": {"max_length": 40}}'
+    )
+    assert main(["generate", *dance, "--model", str(music)]) == 2
+    err = capsys.readouterr().err
+    assert "at most 40 frames (2.0 s at 20 fps)" in err and err.count("\n") == 1, err
+    # once every input is fine, the missing weights are what fails
+    assert main(["generate", *dance, "--model", str(gan)]) == 2
+    assert f"--model {gan}: cannot load" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_training_output_folder_finds_its_model(tmp_path: Path, method_models: dict[str, Path]) -> None:
+    import shutil
+
+    shutil.copytree(method_models["harmogan"], tmp_path / "run" / "models" / "harmogan-abc")
+    song = tmp_path / "song.wav"
+    sf.write(str(song), _song(2.5, 16000, 1), 16000)
+    out = tmp_path / "d.npz"
+    assert _dance(song, out, ["--model", str(tmp_path / "run")]) == 0
+    with np.load(out, allow_pickle=False) as data:
+        assert str(data["skeleton"]) == "dwm21"

@@ -1,16 +1,20 @@
-"""``momu generate``: dance for your song, music for your dance (MoMu-Diffusion).
+"""``momu generate``: dance for your song, music for your dance, motion for a caption.
 
     momu generate dance --music song.mp3 --out out/            # out/dance.mp4, dance.bvh, dance.npz
     momu generate dance --music song.wav --out dance.bvh       # one file; its suffix picks the format
     momu generate music --motion dance.bvh --out out/          # out/music.wav, music.mp4
     momu generate joint --seconds 12 --out out/                # both at once (cross guidance)
+    momu generate text --caption "a person jumps" --model M --out out/   # out/motion.mp4, .bvh, .npz
 
 ``--model DIR`` is a folder written by ``momu train`` (or a recipe: ``<out>/<table>/models/momu-*``);
-without it the model shipped with momu is used. Songs and dances of any length (up to 10 minutes) are
-generated in overlapping windows stitched by inpainting (:mod:`momu.generation`). Everything that can
-be checked without the model — the input file, the output path, the model folder's record, whether
-the motion's skeleton converts to the model's — is checked first; a problem prints one line
-``momu generate: error: ...`` and exits with status 2.
+without it the MoMu model shipped with momu is used. The folder's record says its method: MoMu
+(``momu.json``: dance, music, joint), MoFusion (``mofusion.json``: ``dance`` for a music model,
+``text`` for a text model) or HarmoGAN (``harmogan.json``: ``dance``); the other methods run through
+:mod:`momu.cli.generate_methods`. MoMu generates songs and dances of any length (up to 10 minutes) in
+overlapping windows stitched by inpainting (:mod:`momu.generation`). Everything that can be checked
+without the model — the input file, the output path, the model folder's record, what its method can
+generate, whether the motion's skeleton converts to the model's — is checked first; a problem prints
+one line ``momu generate: error: ...`` and exits with status 2.
 """
 
 from __future__ import annotations
@@ -33,6 +37,12 @@ from momu.cli.generate_io import (
     resolve_outputs,
     song_warnings,
 )
+from momu.cli.generate_methods import (
+    check_model,
+    generate_method_dance,
+    generate_text,
+    text_seconds,
+)
 from momu.cli.generate_write import DANCE_FORMATS, MUSIC_FORMATS, write_dance_outputs, write_music_outputs
 from momu.data.common import AUDIO_SUFFIXES
 
@@ -53,16 +63,20 @@ def _common(p: argparse.ArgumentParser, formats: tuple[str, ...], seconds_help: 
         help=f"output folder, or one file ending in {', '.join('.' + f for f in formats)}",
     )
     p.add_argument("--format", help=f"comma-separated subset of {','.join(formats)} (default: all)")
-    p.add_argument("--model", type=Path, help="a model folder from `momu train` (default: the shipped model)")
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="a model folder from `momu train`: MoMu, MoFusion or HarmoGAN (default: the shipped MoMu model)",
+    )
     p.add_argument("--seed", type=int, default=0, help="noise seed (same seed, same result)")
-    p.add_argument("--guidance", type=float, help="classifier-free guidance scale s (MoMu Eq. 7)")
+    p.add_argument("--guidance", type=float, help="classifier-free guidance scale s (MoMu Eq. 7; MoMu only)")
     p.add_argument("--seconds", type=float, help=seconds_help)
     p.add_argument("--video-fps", type=float, default=25.0, help="frame rate of the mp4 (default 25)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def add_parser(sub: Any) -> None:
-    p = sub.add_parser("generate", help="dance for your music, music for your dance (MoMu-Diffusion)")
+    p = sub.add_parser("generate", help="dance for your music, music for your dance, motion for a caption")
     what = p.add_subparsers(dest="what", metavar="WHAT")
     what.required = True
     d = what.add_parser("dance", help="dance for a song: mp4 (with the song), BVH, npz")
@@ -83,6 +97,10 @@ def add_parser(sub: Any) -> None:
     j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
     _common(j, JOINT_FORMATS, "length in seconds (default 10)")
     j.set_defaults(func=run, direction="joint")
+    t = what.add_parser("text", help="motion for a caption (a MoFusion text model): mp4 (silent), BVH, npz")
+    t.add_argument("--caption", required=True, help='what the person does, e.g. "a person walks forward"')
+    _common(t, DANCE_FORMATS, "length in seconds (default: 4, or the model's training window if shorter)")
+    t.set_defaults(func=run, direction="text")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
             raise GenerateInputError(f"--guidance must be a finite number, got {args.guidance}")
         if not np.isfinite(args.video_fps) or args.video_fps <= 0:
             raise GenerateInputError(f"--video-fps must be > 0, got {args.video_fps}")
-        return {"dance": _dance, "music": _music, "joint": _joint}[args.direction](args)
+        return {"dance": _dance, "music": _music, "joint": _joint, "text": _text}[args.direction](args)
     except (GenerateInputError, FileNotFoundError) as exc:
         sys.stderr.write(f"momu generate: error: {exc}\n")
         return 2
@@ -101,7 +119,17 @@ def run(args: argparse.Namespace) -> int:
 def _record(args: argparse.Namespace, direction: str) -> ModelRecord:
     from momu.training import find_model
 
-    return model_record(find_model(args.model) if args.model is not None else default_model_dir(direction))
+    if args.model is None and direction == "text":
+        raise GenerateInputError(
+            "--model DIR is needed: momu ships no text model (train a MoFusion text model)"
+        )
+    try:
+        folder = find_model(args.model) if args.model is not None else default_model_dir(direction)
+    except ValueError as exc:  # ConfigError: several models in a training output
+        raise GenerateInputError(f"--model {exc}") from None
+    record = model_record(folder)
+    check_model(record, args.direction, args)
+    return record
 
 
 def _need_3d(outputs: dict[str, Path], record: ModelRecord) -> None:
@@ -134,6 +162,7 @@ def _provenance(args: argparse.Namespace, record: ModelRecord, source: Path | No
         "momu_version": __version__,
         "command": ["momu", *sys.argv[1:]] if sys.argv and "momu" in Path(sys.argv[0]).name else None,
         "direction": args.direction,
+        "method": record.method,
         "model": str(record.folder),
         "model_provenance": record.provenance,
         "seed": args.seed,
@@ -153,6 +182,20 @@ def _dance(args: argparse.Namespace) -> int:
     song_warnings(song)
     record = _record(args, "dance")
     _need_3d(outputs, record)
+    if record.method != "momu":
+        motion, fps = generate_method_dance(record, song, args.seed)
+        written = write_dance_outputs(
+            outputs,
+            motion,
+            fps,
+            record.skeleton,
+            song.audio,
+            song.sample_rate,
+            _provenance(args, record, args.music),
+            video_fps=args.video_fps,
+        )
+        log.info("momu generate dance: wrote %s", ", ".join(map(str, written)))
+        return 0
     model = _load(record)
     plan = plan_for_seconds(model, song.duration, "motion")
     with _progress(len(plan.starts), "dance", args.quiet) as bar:
@@ -256,4 +299,21 @@ def _joint(args: argparse.Namespace) -> int:
     if "wav" in outputs:
         written += write_music_outputs({"wav": outputs["wav"]}, audio, sr, motion, fps, model.skeleton)
     log.info("momu generate joint: wrote %s", ", ".join(map(str, written)))
+    return 0
+
+
+def _text(args: argparse.Namespace) -> int:
+    caption = " ".join(str(args.caption).split())
+    if not caption:
+        raise GenerateInputError('--caption is empty; describe the motion, e.g. "a person walks forward"')
+    outputs = resolve_outputs(args.out, _formats(args.format), DANCE_FORMATS, "motion")
+    record = _record(args, "text")
+    _need_3d(outputs, record)
+    seconds = text_seconds(record, args.seconds)
+    motion, fps = generate_text(record, caption, seconds, args.seed)
+    prov = {**_provenance(args, record, None), "caption": caption, "seconds": seconds}
+    written = write_dance_outputs(
+        outputs, motion, fps, record.skeleton, None, None, prov, video_fps=args.video_fps, title="momu text"
+    )
+    log.info("momu generate text: wrote %s", ", ".join(map(str, written)))
     return 0

@@ -29,6 +29,7 @@ __all__ = [
     "resolve_outputs",
     "ModelRecord",
     "model_record",
+    "MODEL_FILES",
     "default_model_dir",
     "file_sha256",
     "MAX_SONG_SECONDS",
@@ -193,37 +194,99 @@ def resolve_outputs(
     return {f: out / f"{stem}.{f}" for f in (formats or list(allowed))}
 
 
+MODEL_FILES = {"momu": "momu.json", "mofusion": "mofusion.json", "harmogan": "harmogan.json"}
+"""The record file of each method's saved model folder (which one a folder holds says its method)."""
+DEFAULT_FPS = {"mofusion": 20.0, "harmogan": 15.0}
+"""Motion rates of the methods whose record may leave ``config.fps`` out (their config defaults)."""
+
+
 @dataclass(frozen=True)
 class ModelRecord:
-    """What a model folder's ``momu.json`` says, read without loading any weights."""
+    """What a model folder's record says, read without loading any weights.
+
+    Attributes:
+        folder: the model folder.
+        method: ``momu``, ``mofusion`` or ``harmogan`` (which of :data:`MODEL_FILES` it holds).
+        skeleton: the motion's skeleton name. dims: 2 or 3 (the skeleton's).
+        task: what it is conditioned on: ``music`` (music→dance; MoMu also dance→music and joint) or
+            ``text`` (a MoFusion text→motion model).
+        fps: motion frame rate (``None`` for MoMu: derived from its rates when loaded).
+        window_seconds: MoFusion's training window (text models train on clips up to this long).
+        max_frames: the longest motion the backbone takes (``None``: any length).
+        provenance: ``provenance.json`` when present.
+    """
 
     folder: Path
     skeleton: str
     dims: int
     provenance: dict[str, Any]
+    method: str = "momu"
+    task: str = "music"
+    fps: float | None = None
+    window_seconds: float | None = None
+    max_frames: int | None = None
+
+    @property
+    def file(self) -> str:
+        return MODEL_FILES[self.method]
+
+
+def _read_record(folder: Path) -> tuple[str, dict[str, Any]]:
+    held = [m for m, name in MODEL_FILES.items() if (folder / name).is_file()]
+    if not held:
+        names = ", ".join(MODEL_FILES.values())
+        raise GenerateInputError(f"--model {folder}: not a saved momu model (no {names})")
+    if len(held) > 1:
+        raise GenerateInputError(f"--model {folder}: holds several model records ({', '.join(held)})")
+    method = held[0]
+    try:
+        meta = read_json(folder / MODEL_FILES[method])
+    except (OSError, ValueError) as exc:
+        raise GenerateInputError(f"--model {folder}: {exc}") from None
+    if not isinstance(meta, dict) or meta.get("method") != method:
+        raise GenerateInputError(f"--model {folder}: {MODEL_FILES[method]} is not a {method} model record")
+    return method, meta
+
+
+def _max_frames(folder: Path) -> int | None:
+    """A backbone's positional-table bound (``dit``'s ``max_length``) from its saved part config."""
+    from momu.parts_io import read_part_config
+
+    try:
+        rec = read_part_config(folder / "backbone")
+    except (OSError, ValueError):
+        return None  # a missing part is reported when the model loads
+    value = (rec.get("config") or {}).get("max_length")
+    return int(value) if isinstance(value, (int, float)) else None
 
 
 def model_record(folder: Path) -> ModelRecord:
-    """Read a model folder's record (``momu.json``, and ``provenance.json`` when present)."""
+    """Read a model folder's record (``momu.json``, ``mofusion.json`` or ``harmogan.json``, and
+    ``provenance.json`` when present)."""
     from momu.features.skeletons import get_skeleton
 
-    meta_path = folder / "momu.json"
-    if not meta_path.is_file():
-        raise GenerateInputError(f"--model {folder}: not a saved momu model (no momu.json)")
-    try:
-        meta = read_json(meta_path)
-    except (OSError, ValueError) as exc:
-        raise GenerateInputError(f"--model {folder}: {exc}") from None
-    if not isinstance(meta, dict) or meta.get("method") != "momu":
-        raise GenerateInputError(f"--model {folder}: momu.json is not a MoMu model record")
+    method, meta = _read_record(folder)
     name = str(meta.get("skeleton", ""))
     try:
         dims = get_skeleton(name).dims
     except KeyError:
-        raise GenerateInputError(f"--model {folder}: unknown skeleton {name!r} in momu.json") from None
+        raise GenerateInputError(
+            f"--model {folder}: unknown skeleton {name!r} in {MODEL_FILES[method]}"
+        ) from None
     prov_path = folder / "provenance.json"
     provenance = dict(read_json(prov_path)) if prov_path.is_file() else {}
-    return ModelRecord(folder, name, dims, provenance)
+    if method == "momu":
+        return ModelRecord(folder, name, dims, provenance)
+    given = meta.get("config")
+    cfg: dict[str, Any] = given if isinstance(given, dict) else {}
+    fps = float(cfg.get("fps", DEFAULT_FPS[method]))
+    if method == "harmogan":
+        return ModelRecord(folder, name, dims, provenance, method, "music", fps)
+    task = str(cfg.get("task", "music"))
+    if task not in ("music", "text"):
+        raise GenerateInputError(f"--model {folder}: unknown MoFusion task {task!r} in mofusion.json")
+    window = float(cfg.get("window_seconds", 10.0))
+    return ModelRecord(folder, name, dims, provenance, method, task, fps, window, _max_frames(folder))
 
 
 def default_model_dir(direction: str) -> Path:

@@ -19,7 +19,8 @@ __all__ = ["DANCE_FORMATS", "MUSIC_FORMATS", "write_dance_outputs", "write_music
 log = logging.getLogger(__name__)
 
 DANCE_FORMATS = ("mp4", "bvh", "npz")
-"""What ``momu generate dance`` writes (folder output: ``dance.<format>``)."""
+"""What ``momu generate dance`` and ``momu generate text`` write (folder output: ``dance.<format>`` /
+``motion.<format>``)."""
 MUSIC_FORMATS = ("wav", "mp4")
 """What ``momu generate music`` writes (folder output: ``music.<format>``)."""
 
@@ -38,21 +39,22 @@ def _video(
     motion: np.ndarray,
     fps: float,
     skeleton: str,
-    audio: np.ndarray,
-    sample_rate: int,
+    audio: np.ndarray | None,
+    sample_rate: int | None,
     video_fps: float,
     title: str,
 ) -> None:
     from momu.render.skeleton import skeleton_animation
 
-    frames = video_frames(motion, fps, len(audio) / sample_rate)
+    seconds = motion.shape[0] / fps if audio is None or not sample_rate else len(audio) / sample_rate
+    frames = video_frames(motion, fps, seconds)
     skeleton_animation(
         path,
         frames,
         fps,
         skeleton,
         audio=audio,
-        sample_rate=sample_rate,
+        sample_rate=sample_rate if audio is not None else None,
         out_fps=min(float(video_fps), float(fps)),
         title=title,
     )
@@ -63,13 +65,18 @@ def write_dance_outputs(
     motion: np.ndarray,
     fps: float,
     skeleton: str,
-    audio: np.ndarray,
-    sample_rate: int,
+    audio: np.ndarray | None,
+    sample_rate: int | None,
     provenance: dict[str, Any],
     *,
     video_fps: float = 25.0,
+    title: str = "momu dance",
 ) -> list[Path]:
-    """Write the generated dance in each requested format; returns the files written."""
+    """Write the generated motion in each requested format; returns the files written.
+
+    ``motion`` is ``(T, J, D)`` at ``fps`` on ``skeleton`` (any method's); the mp4 carries ``audio``
+    as its sound, or is silent (and as long as the motion) when ``audio`` is ``None`` (text→motion).
+    """
     from momu.export import write_bvh, write_motion_npz
 
     written = []
@@ -78,7 +85,7 @@ def write_dance_outputs(
     if "bvh" in paths:
         written.append(write_bvh(paths["bvh"], motion, fps, skeleton))
     if "mp4" in paths:
-        _video(paths["mp4"], motion, fps, skeleton, audio, sample_rate, video_fps, "momu dance")
+        _video(paths["mp4"], motion, fps, skeleton, audio, sample_rate, video_fps, title)
         written.append(paths["mp4"])
     return written
 
