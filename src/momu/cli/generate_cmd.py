@@ -184,35 +184,25 @@ def _dance(args: argparse.Namespace) -> int:
     _need_3d(outputs, record)
     if record.method != "momu":
         motion, fps = generate_method_dance(record, song, args.seed)
-        written = write_dance_outputs(
-            outputs,
-            motion,
-            fps,
-            record.skeleton,
-            song.audio,
-            song.sample_rate,
-            _provenance(args, record, args.music),
-            video_fps=args.video_fps,
-        )
-        log.info("momu generate dance: wrote %s", ", ".join(map(str, written)))
-        return 0
-    model = _load(record)
-    plan = plan_for_seconds(model, song.duration, "motion")
-    with _progress(len(plan.starts), "dance", args.quiet) as bar:
-        (motion,) = music_to_motion_long(
-            model,
-            [song.audio],
-            song.sample_rate,
-            [args.seed],
-            guidance_scale=args.guidance,
-            progress=bar.update,
-        )
-    fps = model.rates.motion_fps
+        skeleton = record.skeleton
+    else:
+        model = _load(record)
+        plan = plan_for_seconds(model, song.duration, "motion")
+        with _progress(len(plan.starts), "dance", args.quiet) as bar:
+            (motion,) = music_to_motion_long(
+                model,
+                [song.audio],
+                song.sample_rate,
+                [args.seed],
+                guidance_scale=args.guidance,
+                progress=bar.update,
+            )
+        fps, skeleton = model.rates.motion_fps, model.skeleton
     written = write_dance_outputs(
         outputs,
         motion,
         fps,
-        model.skeleton,
+        skeleton,
         song.audio,
         song.sample_rate,
         _provenance(args, record, args.music),
