@@ -44,13 +44,21 @@ from momu.methods.mofusion.stages import encode_text
 from momu.parts_io import load_part, read_part_config, save_part
 from momu.samplers.base import lengths_to_mask
 
-__all__ = ["MoFusionModel", "Music"]
+__all__ = ["MoFusionModel", "Music", "MIN_FRAMES", "frames_seconds"]
 
 log = logging.getLogger(__name__)
 
 FORMAT_VERSION = 1
+MIN_FRAMES = 8
+"""The shortest motion generated (frames at the model's rate); shorter requests are padded to it."""
 Music = tuple[np.ndarray, int]
 """A music condition: a mono waveform and its sample rate."""
+
+
+def frames_seconds(frames: int, fps: float) -> float:
+    """A length in seconds that :meth:`MoFusionModel.frames` turns back into ``frames``, a quarter frame
+    short so that a song ``frames / fps`` long covers its mel frames (``round(s · 31.25)`` of them)."""
+    return (int(frames) - 0.25) / float(fps)
 
 
 def _pad(items: Sequence[Tensor]) -> tuple[Tensor, Tensor | None]:
@@ -100,7 +108,7 @@ class MoFusionModel:
 
     # ---------------------------------------------------------------- conditions
     def frames(self, seconds: float) -> int:
-        return max(8, int(round(float(seconds) * self.fps)))
+        return max(MIN_FRAMES, int(round(float(seconds) * self.fps)))
 
     @torch.no_grad()
     def _conditions(
@@ -270,7 +278,10 @@ class MoFusionModel:
         return self._inpaint(motions, fps, list(texts), seconds, seeds, keep)
 
     def _duration(self, motion: np.ndarray, fps: float | None) -> float:
-        return (len(motion) - 0.5) / float(fps or self.fps)
+        """:func:`frames_seconds` of ``motion``'s frame count at the model's rate (after resampling
+        from ``fps``)."""
+        n = len(motion) if fps is None else len(resample_motion(np.asarray(motion), float(fps), self.fps))
+        return frames_seconds(n, self.fps)
 
     # ---------------------------------------------------------------- save / load
     def save(self, folder: str | Path) -> Path:
