@@ -23,6 +23,7 @@ import soundfile as sf
 from tests.unit.test_metrics_beats_audio import SR, clicks
 
 from momu.cli import main
+from momu.export import write_motion_npz
 
 RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 
@@ -134,6 +135,7 @@ def _generate(*argv: str, model: bool = True, wav: bool = True) -> Callable[[Pat
             _wav(root / "song.wav")
         (root / "afile").write_text("x")
         (root / "adir").mkdir()
+        write_motion_npz(root / "motion.npz", _swing(30, 24), 20.0, "smpl24")  # 1.5 s
         args = [a.replace("ROOT", str(root)) for a in argv]
         return ["generate", *args[:1], "--model", str(root / "model"), *args[1:]]
 
@@ -153,6 +155,11 @@ def _method_model(method: str, task: str, *argv: str) -> Callable[[Path], list[s
         return inner
 
     return setup
+
+
+_OUT = ("--out", "ROOT/o")
+_MOTION = ("--motion", "ROOT/motion.npz")
+_SONG_OUT = ("--music", "ROOT/song.wav", *_OUT)
 
 
 def _dwm_bad(root: Path) -> list[str]:
@@ -241,6 +248,49 @@ CASES = [
             "mofusion", "music", "dance", "--music", "ROOT/song.wav", "--out", "ROOT/o", "--guidance", "3"
         ),
         "--guidance",
+    ),
+    # generate forecast / inbetween / edit (MoFusion's inpainting tasks)
+    Case(
+        "generate-forecast-with-a-harmogan-model",
+        _method_model("harmogan", "music", "forecast", "--motion", "ROOT/motion.npz", *_SONG_OUT),
+        "--model",
+    ),
+    Case(
+        "generate-edit-with-a-music-model",
+        _method_model("mofusion", "music", "edit", *_MOTION, "--caption", "x", "--time", "0:1", *_OUT),
+        "`momu generate edit`",
+    ),
+    Case(
+        "generate-forecast-caption-to-a-music-model",
+        _method_model("mofusion", "music", "forecast", *_MOTION, "--caption", "a person jumps", *_OUT),
+        "--caption",
+    ),
+    Case(
+        "generate-forecast-seed-longer-than-the-motion",
+        _method_model("mofusion", "text", "forecast", *_MOTION, "--caption", "a person jumps", *_OUT),
+        "--seed-seconds 2",
+    ),
+    Case(
+        "generate-inbetween-motion-unreadable",
+        _method_model(
+            "mofusion", "music", "inbetween", "--motion", "ROOT/afile", "--keyframes", "0", *_SONG_OUT
+        ),
+        "afile",
+    ),
+    Case(
+        "generate-inbetween-bad-keyframes",
+        _method_model("mofusion", "music", "inbetween", *_MOTION, "--keyframes", "0,x", *_SONG_OUT),
+        "--keyframes",
+    ),
+    Case(
+        "generate-edit-bad-time",
+        _method_model("mofusion", "text", "edit", *_MOTION, "--caption", "x", "--time", "1:0.5", *_OUT),
+        "--time 1:0.5",
+    ),
+    Case(
+        "generate-edit-unknown-joint",
+        _method_model("mofusion", "text", "edit", *_MOTION, "--caption", "x", "--joints", "tail", *_OUT),
+        "--joints",
     ),
     # data check / data synth
     Case(

@@ -5,16 +5,20 @@
     momu generate music --motion dance.bvh --out out/          # out/music.wav, music.mp4
     momu generate joint --seconds 12 --out out/                # both at once (cross guidance)
     momu generate text --caption "a person jumps" --model M --out out/   # out/motion.mp4, .bvh, .npz
+    momu generate forecast --motion seed.bvh --music song.wav --model M --out out/  # MoFusion §4.4
+    momu generate inbetween --motion d.bvh --keyframes 0,2,end --music song.wav --model M --out out/
+    momu generate edit --motion m.npz --caption "a person waves" --time 1:3 --model T --out out/
 
 ``--model DIR`` is a folder written by ``momu train`` (or a recipe: ``<out>/<table>/models/momu-*``);
 without it the MoMu model shipped with momu is used. The folder's record says its method: MoMu
 (``momu.json``: dance, music, joint), MoFusion (``mofusion.json``: ``dance`` for a music model,
-``text`` for a text model) or HarmoGAN (``harmogan.json``: ``dance``); the other methods run through
-:mod:`momu.cli.generate_methods`. MoMu generates songs and dances of any length (up to 10 minutes) in
-overlapping windows stitched by inpainting (:mod:`momu.generation`). Everything that can be checked
-without the model — the input file, the output path, the model folder's record, what its method can
-generate, whether the motion's skeleton converts to the model's — is checked first; a problem prints
-one line ``momu generate: error: ...`` and exits with status 2.
+``text`` for a text model, ``forecast`` / ``inbetween`` for either, ``edit`` for a text model) or
+HarmoGAN (``harmogan.json``: ``dance``); the other methods run through :mod:`momu.cli.generate_methods`,
+MoFusion's inpainting tasks through :mod:`momu.cli.generate_inpaint`. MoMu generates songs and dances
+of any length (up to 10 minutes) in overlapping windows stitched by inpainting (:mod:`momu.generation`).
+Everything that can be checked without the model — the input file, the output path, the model folder's
+record, what its method can generate, whether the motion's skeleton converts to the model's — is
+checked first; a problem prints one line ``momu generate: error: ...`` and exits with status 2.
 """
 
 from __future__ import annotations
@@ -27,52 +31,17 @@ from typing import Any
 
 import numpy as np
 
-from momu.cli.generate_io import (
-    GenerateInputError,
-    ModelRecord,
-    default_model_dir,
-    file_sha256,
-    model_record,
-    read_song,
-    resolve_outputs,
-    song_warnings,
-)
-from momu.cli.generate_methods import (
-    check_model,
-    generate_method_dance,
-    generate_text,
-    text_seconds,
-)
+from momu.cli import generate_inpaint
+from momu.cli.generate_args import add_common, add_motion, formats, need_3d, provenance, record_for
+from momu.cli.generate_io import GenerateInputError, ModelRecord, read_song, resolve_outputs, song_warnings
+from momu.cli.generate_methods import generate_method_dance, generate_text, text_seconds
+from momu.cli.generate_motion import read_motion, to_skeleton
 from momu.cli.generate_write import DANCE_FORMATS, MUSIC_FORMATS, write_dance_outputs, write_music_outputs
 from momu.data.common import AUDIO_SUFFIXES
 
 log = logging.getLogger(__name__)
 
 JOINT_FORMATS = ("wav", "npz", "bvh", "mp4")
-
-
-def _formats(text: str | None) -> list[str] | None:
-    return None if text is None else [f.strip().lower().lstrip(".") for f in text.split(",") if f.strip()]
-
-
-def _common(p: argparse.ArgumentParser, formats: tuple[str, ...], seconds_help: str) -> None:
-    p.add_argument(
-        "--out",
-        type=Path,
-        required=True,
-        help=f"output folder, or one file ending in {', '.join('.' + f for f in formats)}",
-    )
-    p.add_argument("--format", help=f"comma-separated subset of {','.join(formats)} (default: all)")
-    p.add_argument(
-        "--model",
-        type=Path,
-        help="a model folder from `momu train`: MoMu, MoFusion or HarmoGAN (default: the shipped MoMu model)",
-    )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (same seed, same result)")
-    p.add_argument("--guidance", type=float, help="classifier-free guidance scale s (MoMu Eq. 7; MoMu only)")
-    p.add_argument("--seconds", type=float, help=seconds_help)
-    p.add_argument("--video-fps", type=float, default=25.0, help="frame rate of the mp4 (default 25)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def add_parser(sub: Any) -> None:
@@ -86,21 +55,25 @@ def add_parser(sub: Any) -> None:
         required=True,
         help=f"the song: {', '.join(s.lstrip('.') for s in AUDIO_SUFFIXES)}, or anything ffmpeg decodes",
     )
-    _common(d, DANCE_FORMATS, "use only the first SECONDS of the song")
+    add_common(d, DANCE_FORMATS, "use only the first SECONDS of the song")
     d.set_defaults(func=run, direction="dance")
     m = what.add_parser("music", help="music for a dance: wav (+ mp4 of the dance with it)")
-    m.add_argument("--motion", type=Path, required=True, help="BVH, npy, npz, or a Dance with Melody folder")
-    m.add_argument("--skeleton", help="the motion's skeleton when the file does not say (e.g. smpl24)")
-    m.add_argument("--fps", type=float, help="the motion's frame rate when the file does not say")
-    _common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
+    add_motion(m, "the dance")
+    add_common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
     m.set_defaults(func=run, direction="music")
     j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
-    _common(j, JOINT_FORMATS, "length in seconds (default 10)")
+    add_common(j, JOINT_FORMATS, "length in seconds (default 10)")
     j.set_defaults(func=run, direction="joint")
     t = what.add_parser("text", help="motion for a caption (a MoFusion text model): mp4 (silent), BVH, npz")
     t.add_argument("--caption", required=True, help='what the person does, e.g. "a person walks forward"')
-    _common(t, DANCE_FORMATS, "length in seconds (default: 4, or the model's training window if shorter)")
+    add_common(
+        t,
+        DANCE_FORMATS,
+        "length in seconds (default: 4, or the model's training window if shorter)",
+        model_help="a MoFusion text model folder (mofusion.json, task text); required",
+    )
     t.set_defaults(func=run, direction="text")
+    generate_inpaint.add_parsers(what, run)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -110,34 +83,18 @@ def run(args: argparse.Namespace) -> int:
             raise GenerateInputError(f"--guidance must be a finite number, got {args.guidance}")
         if not np.isfinite(args.video_fps) or args.video_fps <= 0:
             raise GenerateInputError(f"--video-fps must be > 0, got {args.video_fps}")
-        return {"dance": _dance, "music": _music, "joint": _joint, "text": _text}[args.direction](args)
+        return {
+            "dance": _dance,
+            "music": _music,
+            "joint": _joint,
+            "text": _text,
+            "forecast": generate_inpaint.forecast,
+            "inbetween": generate_inpaint.inbetween,
+            "edit": generate_inpaint.edit,
+        }[args.direction](args)
     except (GenerateInputError, FileNotFoundError) as exc:
         sys.stderr.write(f"momu generate: error: {exc}\n")
         return 2
-
-
-def _record(args: argparse.Namespace, direction: str) -> ModelRecord:
-    from momu.training import find_model
-
-    if args.model is None and direction == "text":
-        raise GenerateInputError(
-            "--model DIR is needed: momu ships no text model (train a MoFusion text model)"
-        )
-    try:
-        folder = find_model(args.model) if args.model is not None else default_model_dir(direction)
-    except ValueError as exc:  # ConfigError: several models in a training output
-        raise GenerateInputError(f"--model {exc}") from None
-    record = model_record(folder)
-    check_model(record, args.direction, args)
-    return record
-
-
-def _need_3d(outputs: dict[str, Path], record: ModelRecord) -> None:
-    if "bvh" in outputs and record.dims != 3:
-        raise GenerateInputError(
-            f"--model {record.folder}: generates 2D keypoints ({record.skeleton}); BVH needs a 3D model "
-            "(use --format mp4,npz, or a model trained on a 3D skeleton)"
-        )
 
 
 def _load(record: ModelRecord) -> Any:
@@ -155,33 +112,14 @@ def _progress(total: int, desc: str, quiet: bool) -> Any:
     return tqdm(total=total, desc=desc, unit="window", disable=quiet or None, dynamic_ncols=True)
 
 
-def _provenance(args: argparse.Namespace, record: ModelRecord, source: Path | None) -> dict[str, Any]:
-    from momu import __version__
-
-    prov: dict[str, Any] = {
-        "momu_version": __version__,
-        "command": ["momu", *sys.argv[1:]] if sys.argv and "momu" in Path(sys.argv[0]).name else None,
-        "direction": args.direction,
-        "method": record.method,
-        "model": str(record.folder),
-        "model_provenance": record.provenance,
-        "seed": args.seed,
-        "guidance": args.guidance,
-        "seconds": args.seconds,
-    }
-    if source is not None and source.is_file():
-        prov["input"] = {"path": str(source), "sha256": file_sha256(source)}
-    return prov
-
-
 def _dance(args: argparse.Namespace) -> int:
     from momu.generation.momu_long import music_to_motion_long, plan_for_seconds
 
-    outputs = resolve_outputs(args.out, _formats(args.format), DANCE_FORMATS, "dance")
+    outputs = resolve_outputs(args.out, formats(args.format), DANCE_FORMATS, "dance")
     song = read_song(args.music, args.seconds)
     song_warnings(song)
-    record = _record(args, "dance")
-    _need_3d(outputs, record)
+    record = record_for(args, "dance")
+    need_3d(outputs, record)
     if record.method != "momu":
         motion, fps = generate_method_dance(record, song, args.seed)
         skeleton = record.skeleton
@@ -205,7 +143,7 @@ def _dance(args: argparse.Namespace) -> int:
         skeleton,
         song.audio,
         song.sample_rate,
-        _provenance(args, record, args.music),
+        provenance(args, record, args.music),
         video_fps=args.video_fps,
     )
     log.info("momu generate dance: wrote %s", ", ".join(map(str, written)))
@@ -213,33 +151,17 @@ def _dance(args: argparse.Namespace) -> int:
 
 
 def _music(args: argparse.Namespace) -> int:
-    from momu.data.motion_files import read_motion_file
-    from momu.features.convert import can_convert, convert_motion, stand_on_floor
+    from momu.features.convert import stand_on_floor
+    from momu.features.skeletons import get_skeleton
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds
 
-    outputs = resolve_outputs(args.out, _formats(args.format), MUSIC_FORMATS, "music")
-    if args.seconds is not None and (not np.isfinite(args.seconds) or args.seconds <= 0):
-        raise GenerateInputError(f"--seconds must be > 0, got {args.seconds}")
-    try:
-        given = read_motion_file(args.motion, skeleton=args.skeleton, fps=args.fps)
-    except ValueError as exc:
-        raise GenerateInputError(f"--motion {exc}") from None
+    outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
+    given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
     motion, trajectory = given.motion, given.trajectory
-    if args.seconds is not None:
-        keep = max(2, int(round(args.seconds * given.fps)))
-        motion = motion[:keep]
-        trajectory = None if trajectory is None else trajectory[:keep]
-    record = _record(args, "music")
-    if not can_convert(given.skeleton, record.skeleton):
-        raise GenerateInputError(
-            f"--motion {args.motion}: cannot convert skeleton {given.skeleton!r} to the model's "
-            f"{record.skeleton!r} (2D keypoints have no depth for a 3D model)"
-        )
-    from momu.features.skeletons import get_skeleton
-
+    record = record_for(args, "music")
     # the whole path in space (root-centred files carry it apart), on the floor and centred like the
     # training data; 3D -> 2D conversion projects it with the synthetic data's camera
-    model_input = convert_motion(motion, given.skeleton, record.skeleton, trajectory=trajectory)
+    model_input = to_skeleton(given, args.motion, record)
     if get_skeleton(record.skeleton).dims == 3:
         model_input = stand_on_floor(model_input, get_skeleton(record.skeleton).root).astype(np.float32)
     if motion.shape[0] / given.fps < 2.0:
@@ -263,12 +185,12 @@ def _music(args: argparse.Namespace) -> int:
 
 
 def _joint(args: argparse.Namespace) -> int:
-    outputs = resolve_outputs(args.out, _formats(args.format), JOINT_FORMATS, "joint")
+    outputs = resolve_outputs(args.out, formats(args.format), JOINT_FORMATS, "joint")
     seconds = 10.0 if args.seconds is None else float(args.seconds)
     if not np.isfinite(seconds) or seconds <= 0:
         raise GenerateInputError(f"--seconds must be > 0, got {args.seconds}")
-    record = _record(args, "dance")
-    _need_3d(outputs, record)
+    record = record_for(args, "dance")
+    need_3d(outputs, record)
     model = _load(record)
     try:
         ((audio, motion),) = model.joint([seconds], [args.seed])
@@ -283,7 +205,7 @@ def _joint(args: argparse.Namespace) -> int:
         model.skeleton,
         audio,
         sr,
-        _provenance(args, record, None),
+        provenance(args, record, None),
         video_fps=args.video_fps,
     )
     if "wav" in outputs:
@@ -296,12 +218,12 @@ def _text(args: argparse.Namespace) -> int:
     caption = " ".join(str(args.caption).split())
     if not caption:
         raise GenerateInputError('--caption is empty; describe the motion, e.g. "a person walks forward"')
-    outputs = resolve_outputs(args.out, _formats(args.format), DANCE_FORMATS, "motion")
-    record = _record(args, "text")
-    _need_3d(outputs, record)
+    outputs = resolve_outputs(args.out, formats(args.format), DANCE_FORMATS, "motion")
+    record = record_for(args, "text")
+    need_3d(outputs, record)
     seconds = text_seconds(record, args.seconds)
     motion, fps = generate_text(record, caption, seconds, args.seed)
-    prov = {**_provenance(args, record, None), "caption": caption, "seconds": seconds}
+    prov = {**provenance(args, record, None), "caption": caption, "seconds": seconds}
     written = write_dance_outputs(
         outputs, motion, fps, record.skeleton, None, None, prov, video_fps=args.video_fps, title="momu text"
     )

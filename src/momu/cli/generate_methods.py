@@ -2,8 +2,9 @@
 
 The model folder's record (:class:`~momu.cli.generate_io.ModelRecord`) says which method saved it;
 :func:`check_model` refuses, before anything is loaded, what that model cannot do (``music`` / ``joint``
-need MoMu, ``text`` a MoFusion text model, ``dance`` a music model, ``--guidance`` MoMu's classifier-free
-guidance, a length past a backbone's positional table). Generation goes through each method's own API,
+need MoMu, ``text`` a MoFusion text model, ``dance`` a music model, ``forecast`` / ``inbetween`` a
+MoFusion model, ``edit`` a MoFusion text model, ``--guidance`` MoMu's classifier-free guidance, a length
+past a backbone's positional table). Generation goes through each method's own API,
 which covers a whole song in one call:
 
 * MoFusion (:class:`~momu.methods.mofusion.MoFusionModel`): its 1D U-Net is fully convolutional, so
@@ -23,10 +24,20 @@ import numpy as np
 
 from momu.cli.generate_io import GenerateInputError, ModelRecord, Song
 
-__all__ = ["check_model", "describe", "generate_method_dance", "generate_text", "load_method_model"]
+__all__ = [
+    "INPAINTING",
+    "check_model",
+    "check_length",
+    "describe",
+    "generate_method_dance",
+    "generate_text",
+    "load_method_model",
+]
 
 log = logging.getLogger(__name__)
 
+INPAINTING = ("forecast", "inbetween", "edit")
+"""MoFusion's inpainting tasks (§4.4; editing: the abstract), :mod:`momu.cli.generate_inpaint`."""
 TEXT_SECONDS_DEFAULT = 4.0
 """``momu generate text`` length without ``--seconds`` (when the model's window is longer)."""
 
@@ -43,7 +54,16 @@ def describe(record: ModelRecord) -> str:
 def check_model(record: ModelRecord, direction: str, args: argparse.Namespace) -> None:
     """Refuse, before loading, what ``record``'s model cannot do for ``momu generate <direction>``."""
     where = f"--model {record.folder}: {describe(record)}"
-    if direction == "text":
+    if direction in INPAINTING:
+        if record.method != "mofusion":
+            raise GenerateInputError(
+                f"{where}; `momu generate {direction}` needs a MoFusion model (mofusion.json)"
+            )
+        if direction == "edit" and record.task != "text":
+            raise GenerateInputError(
+                f"{where}; `momu generate edit` (text-based editing) needs a MoFusion text→motion model"
+            )
+    elif direction == "text":
         if record.method != "mofusion" or record.task != "text":
             raise GenerateInputError(
                 f"{where}; `momu generate text` needs a MoFusion text→motion model (method.task=text)"

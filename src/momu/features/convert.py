@@ -29,6 +29,7 @@ __all__ = [
     "conversion_matrix",
     "can_convert",
     "convert_motion",
+    "floor_offset",
     "stand_on_floor",
 ]
 
@@ -157,12 +158,19 @@ def can_convert(source: str, target: str) -> bool:
     return True
 
 
+def floor_offset(motion: np.ndarray, root: int) -> np.ndarray:
+    """The ``(3,)`` translation that puts 3D motion's lowest 1 % of joint heights at Y = 0 and its mean
+    root X, Z at 0 (:func:`stand_on_floor`)."""
+    x = np.asarray(motion, dtype=np.float64)
+    offset = np.zeros(3)
+    offset[1] = -np.percentile(x[..., 1], 1.0)
+    offset[[0, 2]] = -x[:, root, [0, 2]].mean(axis=0)
+    return offset
+
+
 def stand_on_floor(motion: np.ndarray, root: int) -> np.ndarray:
     """3D motion moved so its lowest 1 % of joint heights are at Y = 0 and its mean root X, Z at 0."""
-    x = np.array(motion, dtype=np.float64, copy=True)
-    x[..., 1] -= np.percentile(x[..., 1], 1.0)
-    x[..., [0, 2]] -= x[:, root, [0, 2]].mean(axis=0)
-    return x
+    return np.asarray(motion, dtype=np.float64) + floor_offset(motion, root)
 
 
 def convert_motion(
