@@ -164,3 +164,15 @@ def test_unreadable_or_unsafe_model_files_are_refused(tmp_path: Path) -> None:
     other.write_bytes(pickle.dumps([1, 2]))
     with pytest.raises(DataFileError, match="expected a pickled dict"):
         load_smpl_model(other)
+
+
+def test_a_sparse_regressor_declaring_a_huge_shape_is_refused(tmp_path: Path) -> None:
+    """A few bytes of sparse matrix must not become terabytes when made dense."""
+    import scipy.sparse
+
+    model = random_smpl()
+    bomb = scipy.sparse.csc_matrix(model["J_regressor"])
+    bomb._shape = (24, 10**12)  # what a crafted file could declare
+    path = write_smpl_pickle(tmp_path / "bomb.pkl", model, J_regressor=bomb)
+    with pytest.raises(DataFileError, match="key 'J_regressor': a sparse matrix of shape"):
+        load_smpl_model(path)

@@ -29,6 +29,7 @@ __all__ = [
     "absent_reason",
     "npy_header",
     "load_npy",
+    "read_pickle",
     "read_pickle_dict",
     "audio_info",
     "load_audio",
@@ -169,26 +170,31 @@ def load_npy(path: str | Path) -> np.ndarray:
     return array
 
 
-def read_pickle_dict(
-    path: str | Path, max_bytes: int, records: Collection[tuple[str, str]] = ()
-) -> dict[str, Any]:
-    """A pickled dict read with :mod:`momu.data.safe_pickle` (``records``: foreign classes admitted
-    as plain state, e.g. SMPL's chumpy arrays), never ``pickle.load``.
+def read_pickle(path: str | Path, max_bytes: int, records: Collection[tuple[str, str]] = ()) -> Any:
+    """A pickle read with :mod:`momu.data.safe_pickle` (``records``: foreign classes admitted as
+    plain state, e.g. SMPL's chumpy arrays), never ``pickle.load``.
 
     Raises:
         MissingDataFileError: no such file.
-        DataFileError: a forbidden global, a memory bomb, an unreadable pickle or not a dict.
+        DataFileError: a forbidden global, a memory bomb or an unreadable pickle.
     """
     path = Path(path)
     if not path.is_file():
         raise _missing(path)
     try:
-        data = safe_load(path, max_bytes=max_bytes, records=records)
+        return safe_load(path, max_bytes=max_bytes, records=records)
     except UnsafePickleError as exc:
         reason = str(exc)
         raise DataFileError(
             path, reason.split(": ", 1)[1] if reason.startswith(str(path)) else reason
         ) from None
+
+
+def read_pickle_dict(
+    path: str | Path, max_bytes: int, records: Collection[tuple[str, str]] = ()
+) -> dict[str, Any]:
+    """:func:`read_pickle` of a file that must hold a dict (else :class:`DataFileError`)."""
+    data = read_pickle(path, max_bytes, records)
     if not isinstance(data, dict):
         raise DataFileError(path, f"expected a pickled dict, got {type(data).__name__}")
     return data

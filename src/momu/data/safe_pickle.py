@@ -150,7 +150,7 @@ def _record_class(module: str, name: str) -> type:
     NEWOBJ opcode), gives a :class:`PickledObject` instead of an instance of the real class."""
 
     class _Record:
-        def __new__(cls, *args: Any, **kwargs: Any) -> Any:  # noqa: ARG004
+        def __new__(cls, *args: Any, **kwargs: Any) -> Any:
             return PickledObject(module, name, args)
 
     _Record.__name__ = _Record.__qualname__ = name

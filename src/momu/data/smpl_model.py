@@ -114,7 +114,10 @@ def _plain(value: Any, key: str, path: Path) -> Any:
 
     kind = scipy.sparse.csc_matrix if value.name == "csc_matrix" else scipy.sparse.csr_matrix
     try:
-        return kind((parts[0], parts[1], parts[2]), shape=tuple(int(n) for n in shape)).toarray()
+        dims = tuple(int(n) for n in shape)
+        if len(dims) != 2 or min(dims) < 0 or dims[0] * dims[1] * 8 > _MAX_BYTES:
+            raise DataFileError(path, f"key {key!r}: a sparse matrix of shape {dims} (too large when dense)")
+        return kind((parts[0], parts[1], parts[2]), shape=dims).toarray()
     except (ValueError, TypeError) as exc:
         raise DataFileError(path, f"key {key!r}: not a valid sparse matrix ({exc})") from None
 
