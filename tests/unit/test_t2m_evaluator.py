@@ -23,6 +23,7 @@ from momu.engine.context import RunContext
 from momu.engine.table import parse_table_args, resolve_row_configs, run_table
 from momu.features.mofusion_pose import encode_pose
 from momu.features.skeletons import forward_kinematics, get_skeleton
+from momu.methods.mofusion.config import MoFusionConfig, MoFusionEvalConfig, check_config
 from momu.methods.mofusion.evaluate_text import calibrate_text, t2m_evaluator
 from momu.methods.mofusion.tables_text import table2_spec
 from momu.metrics.t2m_evaluator import CHECKPOINT_MODULES, T2MDims, T2MEvaluator
@@ -235,6 +236,13 @@ def test_mofusion_paper_preset_selects_t2m_or_warns_and_fails_early_on_bad_files
         assert t2m_evaluator(OmegaConf.create(base)) is None
     assert "method.evaluation.evaluator_checkpoint, method.evaluation.glove_dir" in caplog.text
     assert t2m_evaluator(OmegaConf.create({"method": {"fps": 20.0, "evaluation": {}}})) is None  # momu's
+    with pytest.raises(ValueError, match="evaluator_kind must be one of"):
+        check_config(MoFusionConfig(evaluation=MoFusionEvalConfig(evaluator_kind="clip")))
+    at_30 = {
+        "method": {"fps": 30.0, "evaluation": dict(zip(_T2M_KEYS, small, strict=True), evaluator_kind="t2m")}
+    }
+    with pytest.raises(ValueError, match="reads 20 fps motion"):
+        t2m_evaluator(OmegaConf.create(at_30))
     write_humanml3d(tmp_path / "hml")
     bad = tmp_path / "finest.tar"
     bad.write_bytes(b"not a checkpoint")
