@@ -190,3 +190,24 @@ def _same(a: object, b: object) -> bool:
 @given(tree=_trees, protocol=st.integers(0, pickle.HIGHEST_PROTOCOL))
 def test_any_tree_of_containers_and_arrays_round_trips(tree: object, protocol: int) -> None:
     assert _same(tree, safe_loads(pickle.dumps(tree, protocol=protocol)))
+
+
+def test_admitted_records_load_as_plain_state_without_running_the_class() -> None:
+    """``records`` admit named foreign classes as :class:`PickledObject` (SMPL's chumpy/scipy objects):
+    the class is neither imported nor run, and anything else is still refused."""
+    import scipy.sparse
+
+    from momu.data.safe_pickle import PickledObject
+
+    matrix = scipy.sparse.csc_matrix(np.eye(3)[:2])
+    raw = pickle.dumps({"m": matrix}, protocol=2)
+    name = (type(matrix).__module__, "csc_matrix")
+    with pytest.raises(UnsafePickleError, match="refusing to load global 'scipy.sparse"):
+        safe_loads(raw)
+    out = safe_loads(raw, records={name})["m"]
+    assert isinstance(out, PickledObject) and (out.module, out.name) == name and out.args == ()
+    np.testing.assert_array_equal(out.state["indptr"], matrix.indptr)
+    assert tuple(out.state["_shape"]) == (2, 3)
+    evil = raw.replace(b"numpy", b"nompy", 1)  # the arrays inside are still checked
+    with pytest.raises(UnsafePickleError):
+        safe_loads(evil, records={name})

@@ -18,9 +18,12 @@ A sequence name such as ``gBR_sBM_cAll_d04_mBR0_ch01`` reads genre ``gBR``, situ
 
 The motion is COCO-17 keypoints (skeleton ``coco17``): ``keypoints3d`` by default (scaled to
 metres by ``units_scale``), ``keypoints3d_optim``, or one camera view of ``keypoints2d`` (pixels,
-the detector confidence in ``meta["confidence"]``). SMPL joint positions need the SMPL body
-model, which momu does not ship; the SMPL parameters are kept in ``meta`` (``smpl_poses``,
-``smpl_trans``, ``smpl_scaling``) for users who have it. Pickles are read with
+the detector confidence in ``meta["confidence"]``); the SMPL parameters are kept in ``meta``
+(``smpl_poses``, ``smpl_trans``, ``smpl_scaling``). ``motion="smpl24"`` gives the 24 SMPL joints
+(skeleton ``smpl24``, metres in SMPL model scale) by forward kinematics of ``motions/<seq>.pkl``
+with the user's SMPL model file ``smpl_model`` (momu does not ship SMPL;
+:mod:`momu.data.smpl_model`): FK of ``smpl_poses`` + ``smpl_trans / smpl_scaling``, as AIST++'s
+own feature extraction, Bailando and EDGE compute them. Pickles are read with
 :mod:`momu.data.safe_pickle`, never ``pickle.load``.
 
 The music starts with the motion (frame 0 = music time 0, as Bailando and EDGE assume); the
@@ -43,21 +46,22 @@ from momu.data.common import (
     LazyClipDataset,
     LoaderConfig,
     MissingDataFileError,
-    absent_reason,
     check_split,
     clean_keypoints,
     load_audio,
     read_lines,
+    read_pickle_dict,
     require_root,
     skeleton_shape,
 )
-from momu.data.safe_pickle import UnsafePickleError, safe_load
+from momu.data.smpl_model import SMPLModel, aistpp_joints, load_smpl_model
 from momu.data.types import Clip
+from momu.features.skeletons import get_skeleton
 from momu.registry import DATASETS
 
 __all__ = ["AISTPPConfig", "AISTPPDataset", "GENRES", "parse_sequence_name", "normalize_sequence_name"]
 
-MOTION_KINDS = ("keypoints3d", "keypoints3d_optim", "keypoints2d")
+MOTION_KINDS = ("keypoints3d", "keypoints3d_optim", "keypoints2d", "smpl24")
 
 GENRES = {
     "gBR": "break",
@@ -87,7 +91,11 @@ class AISTPPConfig(LoaderConfig):
     Attributes:
         split: ``train`` / ``val`` / ``test`` (``splits/crossmodal_<split>.txt``) or ``all``
             (every sequence with a motion file).
-        motion: ``keypoints3d`` (default), ``keypoints3d_optim`` or ``keypoints2d``.
+        motion: ``keypoints3d`` (default), ``keypoints3d_optim``, ``keypoints2d`` (COCO-17) or
+            ``smpl24`` (SMPL joints by forward kinematics; needs ``smpl_model``).
+        smpl_model: the user's SMPL model file for ``motion=smpl24`` (``SMPL_MALE.pkl`` — AIST++
+            was fitted with the male model —, ``SMPL_NEUTRAL.pkl``, a ``basicmodel_*.pkl`` or an
+            ``.npz`` conversion; absolute or relative to the working directory).
         view: camera view index (0 = ``c01``) for ``keypoints2d``.
         music_dir: folder of ``<music id>.wav``, relative to ``root`` or absolute; ``None`` (default)
             finds it among :data:`MUSIC_DIRS`.
@@ -103,6 +111,7 @@ class AISTPPConfig(LoaderConfig):
 
     split: str = "train"
     motion: str = "keypoints3d"
+    smpl_model: str | None = None
     view: int = 0
     music_dir: str | None = None
     fps: float = 60.0
@@ -152,21 +161,6 @@ def parse_sequence_name(name: str) -> dict[str, str]:
     }
 
 
-def _pickle_dict(path: Path, max_bytes: int) -> dict[str, Any]:
-    if not path.is_file():
-        raise MissingDataFileError(path, absent_reason(path))
-    try:
-        data = safe_load(path, max_bytes=max_bytes)
-    except UnsafePickleError as exc:
-        reason = str(exc)
-        raise DataFileError(
-            path, reason.split(": ", 1)[1] if reason.startswith(str(path)) else reason
-        ) from None
-    if not isinstance(data, dict):
-        raise DataFileError(path, f"expected a pickled dict, got {type(data).__name__}")
-    return data
-
-
 def _array(data: dict[str, Any], key: str, path: Path) -> np.ndarray:
     if key not in data:
         raise DataFileError(path, f"missing key {key!r} (has {sorted(map(str, data))})")
@@ -192,7 +186,23 @@ class AISTPPDataset(LazyClipDataset):
             )
         if cfg.fps <= 0:
             raise ValueError(f"{self.name}: fps must be positive, got {cfg.fps}")
-        self.motion_dir = root / ("keypoints2d" if cfg.motion == "keypoints2d" else "keypoints3d")
+        self.smpl: SMPLModel | None = None
+        if cfg.motion == "smpl24":
+            if not cfg.smpl_model:
+                raise ValueError(
+                    f"{self.name}: motion=smpl24 needs smpl_model=PATH (dataset.smpl_model), a local SMPL "
+                    "model file (SMPL_MALE.pkl, SMPL_NEUTRAL.pkl or an .npz conversion; momu ships none)"
+                )
+            self.smpl = load_smpl_model(cfg.smpl_model)
+            if self.smpl.parents != get_skeleton("smpl24").parents:
+                raise DataFileError(
+                    self.smpl.path,
+                    f"key 'kintree_table': {self.smpl.num_joints} joints whose tree is not SMPL's 24-joint "
+                    "body (SMPL-H/SMPL-X files are not SMPL)",
+                )
+        self.motion_dir = root / {"keypoints2d": "keypoints2d", "smpl24": "motions"}.get(
+            cfg.motion, "keypoints3d"
+        )
         if not self.motion_dir.is_dir():
             raise FileNotFoundError(f"{self.name}: {self.motion_dir} does not exist")
         if cfg.max_pickle_mb <= 0:
@@ -252,7 +262,7 @@ class AISTPPDataset(LazyClipDataset):
     # -------------------------------------------------------------------------------- loading
     def _keypoints(self, path: Path) -> tuple[np.ndarray, dict[str, Any]]:
         cfg = self.cfg
-        data = _pickle_dict(path, self.max_pickle_bytes)
+        data = read_pickle_dict(path, self.max_pickle_bytes)
         joints, _ = skeleton_shape("coco17")
         meta: dict[str, Any] = {}
         if cfg.motion == "keypoints2d":
@@ -279,7 +289,7 @@ class AISTPPDataset(LazyClipDataset):
 
     def _smpl(self, seq: str, frames: int) -> dict[str, Any]:
         path = self.smpl_dir / f"{seq}.pkl"
-        data = _pickle_dict(path, self.max_pickle_bytes)
+        data = read_pickle_dict(path, self.max_pickle_bytes)
         poses = _array(data, "smpl_poses", path).astype(np.float32)
         trans = _array(data, "smpl_trans", path).astype(np.float32)
         scaling = _array(data, "smpl_scaling", path).astype(np.float32).reshape(-1)
@@ -294,7 +304,9 @@ class AISTPPDataset(LazyClipDataset):
             )
         if scaling.size != 1:
             raise DataFileError(path, f"expected one smpl_scaling value, got shape {scaling.shape}")
-        if abs(poses.shape[0] - frames) > 1:
+        if not (np.all(np.isfinite(poses)) and np.all(np.isfinite(trans)) and float(scaling[0]) > 0):
+            raise DataFileError(path, "non-finite smpl_poses/smpl_trans or a non-positive smpl_scaling")
+        if frames >= 0 and abs(poses.shape[0] - frames) > 1:
             raise DataFileError(
                 path, f"SMPL motion has {poses.shape[0]} frames but the keypoints have {frames}"
             )
@@ -307,7 +319,14 @@ class AISTPPDataset(LazyClipDataset):
             fields = parse_sequence_name(seq)
         except ValueError as exc:
             raise DataFileError(ref.path, str(exc)) from None
-        motion, meta = self._keypoints(ref.path)
+        if self.smpl is not None:
+            smpl = self._smpl(seq, -1)
+            motion = aistpp_joints(
+                self.smpl, smpl["smpl_poses"], smpl["smpl_trans"], smpl["smpl_scaling"]
+            ).astype(np.float32)
+            meta: dict[str, Any] = {**smpl, "smpl_model": str(self.smpl.path)}
+        else:
+            motion, meta = self._keypoints(ref.path)
         meta.update(
             split=ref.extra["split"],
             source=str(ref.path),
@@ -317,7 +336,7 @@ class AISTPPDataset(LazyClipDataset):
             choreography=fields["choreography"],
             genre_name=GENRES.get(fields["genre"], fields["genre"]),
         )
-        if cfg.load_smpl and self.smpl_dir.is_dir():
+        if self.smpl is None and cfg.load_smpl and self.smpl_dir.is_dir():
             meta.update(self._smpl(seq, motion.shape[0]))
         audio = None
         sample_rate = None
@@ -345,7 +364,7 @@ class AISTPPDataset(LazyClipDataset):
             fps=float(cfg.fps),
             audio=audio,
             sample_rate=sample_rate,
-            skeleton="coco17",
+            skeleton="smpl24" if self.smpl is not None else "coco17",
             style=fields["genre"],
             meta=meta,
         )

@@ -33,6 +33,8 @@ from momu.data.files import (
     printable,
     read_json_file,
     read_lines,
+    read_pickle,
+    read_pickle_dict,
 )
 from momu.data.types import Clip
 
@@ -45,6 +47,8 @@ __all__ = [
     "require_root",
     "read_lines",
     "read_json_file",
+    "read_pickle",
+    "read_pickle_dict",
     "load_npy",
     "npy_header",
     "absent_reason",

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import errno
 import os
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from momu.data.safe_pickle import UnsafePickleError, safe_load
 from momu.io import read_json
 
 __all__ = [
@@ -27,6 +29,8 @@ __all__ = [
     "absent_reason",
     "npy_header",
     "load_npy",
+    "read_pickle",
+    "read_pickle_dict",
     "audio_info",
     "load_audio",
 ]
@@ -164,6 +168,36 @@ def load_npy(path: str | Path) -> np.ndarray:
     except (ValueError, OSError, EOFError) as exc:
         raise DataFileError(path, f"not a valid .npy file ({exc})") from None
     return array
+
+
+def read_pickle(path: str | Path, max_bytes: int, records: Collection[tuple[str, str]] = ()) -> Any:
+    """A pickle read with :mod:`momu.data.safe_pickle` (``records``: foreign classes admitted as
+    plain state, e.g. SMPL's chumpy arrays), never ``pickle.load``.
+
+    Raises:
+        MissingDataFileError: no such file.
+        DataFileError: a forbidden global, a memory bomb or an unreadable pickle.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise _missing(path)
+    try:
+        return safe_load(path, max_bytes=max_bytes, records=records)
+    except UnsafePickleError as exc:
+        reason = str(exc)
+        raise DataFileError(
+            path, reason.split(": ", 1)[1] if reason.startswith(str(path)) else reason
+        ) from None
+
+
+def read_pickle_dict(
+    path: str | Path, max_bytes: int, records: Collection[tuple[str, str]] = ()
+) -> dict[str, Any]:
+    """:func:`read_pickle` of a file that must hold a dict (else :class:`DataFileError`)."""
+    data = read_pickle(path, max_bytes, records)
+    if not isinstance(data, dict):
+        raise DataFileError(path, f"expected a pickled dict, got {type(data).__name__}")
+    return data
 
 
 def audio_info(path: str | Path) -> tuple[int, int]:

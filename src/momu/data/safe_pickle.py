@@ -18,6 +18,12 @@ Every other global (``os.system``, ``builtins.eval``, ``subprocess.Popen``, ...)
 :class:`UnsafePickleError` *before* anything is called, so a crafted file cannot run code.
 Dicts, lists, tuples, strings, numbers, ``None`` and booleans need no global and load as usual.
 
+A caller that expects instances of a few named foreign classes (the official SMPL model pickles
+hold ``chumpy.ch.Ch`` arrays and a ``scipy.sparse`` matrix) may admit those classes as *records*
+(``records={("chumpy.ch", "Ch")}``): the pickle then builds a :class:`PickledObject` holding the
+class's name, its constructor arguments and the state the pickle gives it. The foreign class is
+never imported and none of its code runs; the caller reads the (plain, checked) state itself.
+
 Memory bombs are refused before anything is allocated. A few bytes of pickle can otherwise ask
 for gigabytes: ``bytes(N)`` / ``bytearray(N)`` (N zero bytes from nothing), the ``numpy.ndarray(shape)``
 constructor (uninitialised memory that would be read as keypoints), an array whose declared shape
@@ -39,7 +45,7 @@ import collections
 import io
 import pickle
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from pathlib import Path
 from typing import IO, Any, NoReturn
 
@@ -47,6 +53,7 @@ import numpy as np
 
 __all__ = [
     "UnsafePickleError",
+    "PickledObject",
     "RestrictedUnpickler",
     "safe_load",
     "safe_loads",
@@ -113,6 +120,43 @@ class _Refused(UnsafePickleError):
     pass
 
 
+class PickledObject:
+    """An instance of an admitted record class (see the module docstring), never constructed for real.
+
+    Attributes:
+        module: the class's module as the pickle names it (``"chumpy.ch"``).
+        name: the class's name (``"Ch"``).
+        args: the arguments the pickle passed to the class (usually ``()``).
+        state: what the pickle's BUILD gave the instance (usually its ``__dict__``), or ``None``.
+    """
+
+    __slots__ = ("module", "name", "args", "state")
+
+    def __init__(self, module: str, name: str, args: tuple[Any, ...] = ()) -> None:
+        self.module = module
+        self.name = name
+        self.args = args
+        self.state: Any = None
+
+    def __setstate__(self, state: Any) -> None:
+        self.state = state
+
+    def __repr__(self) -> str:
+        return f"PickledObject({self.module}.{self.name})"
+
+
+def _record_class(module: str, name: str) -> type:
+    """What ``find_class`` returns for an admitted record: calling it, or its ``__new__`` (the
+    NEWOBJ opcode), gives a :class:`PickledObject` instead of an instance of the real class."""
+
+    class _Record:
+        def __new__(cls, *args: Any, **kwargs: Any) -> Any:
+            return PickledObject(module, name, args)
+
+    _Record.__name__ = _Record.__qualname__ = name
+    return _Record
+
+
 def _nbytes(shape: Any, dtype: np.dtype[Any], source: str) -> int:
     if isinstance(shape, (int, np.integer)):
         shape = (shape,)
@@ -133,13 +177,19 @@ class RestrictedUnpickler(pickle._Unpickler):
         file: a binary file object positioned at the pickle.
         source: a name for error messages (the file path).
         max_bytes: the most array data (bytes, summed over the file) that may be declared.
+        records: ``(module, name)`` classes whose instances load as :class:`PickledObject`.
     """
 
     dispatch: dict[int, Any] = dict(pickle._Unpickler.dispatch)  # type: ignore[attr-defined,misc]
     stack: list[Any]  # the pure-Python unpickler's stack (untyped in the stubs)
 
     def __init__(
-        self, file: IO[bytes], *, source: str = "<pickle>", max_bytes: int = DEFAULT_MAX_BYTES
+        self,
+        file: IO[bytes],
+        *,
+        source: str = "<pickle>",
+        max_bytes: int = DEFAULT_MAX_BYTES,
+        records: Collection[tuple[str, str]] = (),
     ) -> None:
         # latin-1 lets Python 2 pickles of numpy arrays (their raw data is a py2 str) load.
         super().__init__(file, encoding="latin1")
@@ -154,11 +204,12 @@ class RestrictedUnpickler(pickle._Unpickler):
             self._allowed[(f"{package}.numeric", "_frombuffer")] = self._frombuffer
         self._np_reconstruct = core.multiarray._reconstruct
         self._np_frombuffer = core.numeric._frombuffer
+        self._records = {(m, n): _record_class(m, n) for m, n in records}
 
     # ------------------------------------------------------------------ globals
     def find_class(self, module: str, name: str) -> Any:
         try:
-            return self._allowed[(module, name)]
+            return self._allowed.get((module, name)) or self._records[(module, name)]
         except KeyError:
             raise UnsafePickleError(
                 f"{self._source}: refusing to load global '{module}.{name}': only plain containers and "
@@ -265,8 +316,14 @@ class RestrictedUnpickler(pickle._Unpickler):
     dispatch[pickle.BUILD[0]] = load_build
 
 
-def safe_loads(data: bytes, *, source: str = "<bytes>", max_bytes: int = DEFAULT_MAX_BYTES) -> Any:
-    """Unpickle ``data`` with :class:`RestrictedUnpickler`.
+def safe_loads(
+    data: bytes,
+    *,
+    source: str = "<bytes>",
+    max_bytes: int = DEFAULT_MAX_BYTES,
+    records: Collection[tuple[str, str]] = (),
+) -> Any:
+    """Unpickle ``data`` with :class:`RestrictedUnpickler` (``records``: see the module docstring).
 
     Raises:
         UnsafePickleError: a forbidden global, a memory bomb, or a truncated / malformed stream
@@ -275,7 +332,8 @@ def safe_loads(data: bytes, *, source: str = "<bytes>", max_bytes: int = DEFAULT
     if len(data) > max_bytes:
         raise UnsafePickleError(f"{source}: {len(data)} bytes, more than the {max_bytes}-byte limit")
     try:
-        return RestrictedUnpickler(io.BytesIO(data), source=source, max_bytes=max_bytes).load()
+        unpickler = RestrictedUnpickler(io.BytesIO(data), source=source, max_bytes=max_bytes, records=records)
+        return unpickler.load()
     except UnsafePickleError:
         raise
     except MemoryError:
@@ -296,8 +354,10 @@ def safe_loads(data: bytes, *, source: str = "<bytes>", max_bytes: int = DEFAULT
         raise UnsafePickleError(f"{source}: not a readable pickle ({type(exc).__name__}: {exc})") from None
 
 
-def safe_load(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> Any:
-    """Read a pickle file through :class:`RestrictedUnpickler`.
+def safe_load(
+    path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES, records: Collection[tuple[str, str]] = ()
+) -> Any:
+    """Read a pickle file through :class:`RestrictedUnpickler` (``records``: see the module docstring).
 
     Raises:
         FileNotFoundError: ``path`` does not exist.
@@ -310,4 +370,4 @@ def safe_load(path: str | Path, *, max_bytes: int = DEFAULT_MAX_BYTES) -> Any:
     size = path.stat().st_size
     if size > max_bytes:
         raise UnsafePickleError(f"{path}: {size} bytes, more than the {max_bytes}-byte limit (max_bytes)")
-    return safe_loads(path.read_bytes(), source=str(path), max_bytes=max_bytes)
+    return safe_loads(path.read_bytes(), source=str(path), max_bytes=max_bytes, records=records)

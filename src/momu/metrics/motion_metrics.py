@@ -158,7 +158,7 @@ def _clip_positions(clip: Clip, metric: str) -> np.ndarray:
     if clip.skeleton and clip.skeleton != "smpl24":
         raise ValueError(
             f"{metric}: clip {clip.id!r} has skeleton {clip.skeleton!r}; kinetic/geometric features are "
-            "defined on SMPL-24 joints ('smpl24')"
+            "defined on SMPL-24 joints ('smpl24'; AIST++: dataset.motion=smpl24 with dataset.smpl_model=PATH)"
         )
     if motion.ndim != 3 or motion.shape[1:] != (24, 3):
         raise ValueError(

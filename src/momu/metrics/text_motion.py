@@ -14,13 +14,20 @@ motions, and four numbers on their embeddings:
 * **Multi-Modality**: the mean distance between the embeddings of motions generated for the same
   caption, averaged over captions.
 
-momu cannot ship T2M's evaluator (trained on HumanML3D's 263-d features), so
-:class:`TextMotionEvaluator` is a small pair of encoders trained from scratch with a symmetric
-InfoNCE loss on the dataset at hand (:func:`train_text_motion_evaluator`); embeddings are unit
-vectors, so distances lie in [0, 2] and are not on T2M's scale. A user-supplied evaluator folder
-(saved by :meth:`TextMotionEvaluator.save`) is loaded with :meth:`TextMotionEvaluator.load`.
-Motions are given as pose vectors ``(T, 3J)`` at 20 fps (MoFusion §3), standardised by the
-evaluator's own statistics.
+Two evaluators give the embeddings (both answer :class:`TextEvaluator`):
+
+* **T2M's pre-trained evaluator** (:class:`~momu.metrics.t2m_evaluator.T2MEvaluator`), loaded from a
+  user's local copy of T2M's ``finest.tar``, GloVe folder and ``mean.npy``/``std.npy`` (momu cannot
+  download or ship them); it reads HumanML3D's 263-d features (converted from the 22 joints) and
+  ``word/POS`` tokens (:func:`caption_tokens`), and its distances are on T2M's scale;
+* otherwise :class:`TextMotionEvaluator`, a small pair of encoders trained from scratch with a
+  symmetric InfoNCE loss on the dataset at hand; embeddings are unit vectors, so distances lie in
+  [0, 2] and are not on T2M's scale. A folder saved by :meth:`TextMotionEvaluator.save` reloads with
+  :meth:`TextMotionEvaluator.load`. It reads pose vectors ``(T, 3J)`` at 20 fps (MoFusion §3),
+  standardised by its own statistics, and raw caption words.
+
+Both take motions as MoFusion pose vectors (``embed_motions``) and captions as strings plus, where
+known, their HumanML3D tokens (``embed_texts(texts, tokens)``).
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import torch
@@ -41,6 +48,8 @@ from momu.metrics.diversity import average_pairwise_distance
 from momu.registry import METRICS
 
 __all__ = [
+    "TextEvaluator",
+    "caption_tokens",
     "TextMotionEvaluatorConfig",
     "TextMotionEvaluator",
     "r_precision_hits",
@@ -49,6 +58,36 @@ __all__ = [
     "embedding_multimodality",
     "contrastive_loss",
 ]
+
+
+class TextEvaluator(Protocol):
+    """What the text metrics need of an evaluator: caption and motion embeddings (rows in input order)."""
+
+    kind: str
+
+    def embed_texts(
+        self, texts: Sequence[str], tokens: Sequence[Sequence[str] | None] | None = None
+    ) -> np.ndarray: ...
+
+    def embed_motions(self, poses: Sequence[np.ndarray]) -> np.ndarray: ...
+
+    def describe(self) -> str: ...
+
+
+def caption_tokens(clip: Any) -> list[str] | None:
+    """HumanML3D's ``word/POS`` tokens of the clip's first caption (``Clip.text[0]``), or ``None``.
+
+    They come from ``meta["text_tokens"]`` or from the ``humanml3d`` loader's
+    ``meta["text_segments"]`` entry whose caption is ``text[0]``.
+    """
+    meta = getattr(clip, "meta", None) or {}
+    if meta.get("text_tokens"):
+        return [str(t) for t in meta["text_tokens"]]
+    text = getattr(clip, "text", None) or []
+    for seg in meta.get("text_segments") or []:
+        if text and isinstance(seg, dict) and seg.get("caption") == text[0] and seg.get("tokens"):
+            return [str(t) for t in seg["tokens"]]
+    return None
 
 
 @dataclass
@@ -75,9 +114,12 @@ class TextMotionEvaluatorConfig:
 class TextMotionEvaluator(nn.Module):
     """Caption encoder (word Transformer, masked mean) and motion encoder (strided 1D convs + GRU)."""
 
+    kind = "momu"
+
     def __init__(self, cfg: TextMotionEvaluatorConfig) -> None:
         super().__init__()
         self.cfg = cfg
+        self.source = "momu evaluator trained from scratch"
         heads = 4 if cfg.width % 4 == 0 else 1
         self.text = TextTransformer(
             TextTransformerConfig(
@@ -141,8 +183,14 @@ class TextMotionEvaluator(nn.Module):
             out.append(self.embed_motion(x, mask).cpu().numpy())
         return np.concatenate(out).astype(np.float64)
 
+    def describe(self) -> str:
+        return self.source
+
     @torch.no_grad()
-    def embed_texts(self, texts: Sequence[str], batch: int = 256) -> np.ndarray:
+    def embed_texts(
+        self, texts: Sequence[str], tokens: Sequence[Sequence[str] | None] | None = None, batch: int = 256
+    ) -> np.ndarray:
+        """Unit embeddings of captions (``tokens`` are not used: this evaluator reads the words)."""
         self.eval()
         return np.concatenate(
             [self.embed_text(texts[s : s + batch]).cpu().numpy() for s in range(0, len(texts), batch)]
@@ -176,6 +224,7 @@ class TextMotionEvaluator(nn.Module):
             raise ValueError(f"{folder / 'evaluator.json'}: not a text–motion evaluator")
         model = cls(TextMotionEvaluatorConfig(**meta["config"]))
         model.load_state_dict(load_file(str(folder / "model.safetensors")), strict=True)
+        model.source = f"momu evaluator {folder}"
         return model.eval()
 
 
@@ -233,19 +282,27 @@ def vocab_from(texts: Sequence[str], max_tokens: int) -> list[str]:
 
 @dataclass
 class TextMetricConfig:
-    """Registered text–motion metrics (need ``evaluator=`` a :class:`TextMotionEvaluator`).
+    """Registered text–motion metrics: the evaluator is ``evaluator=`` (any :class:`TextEvaluator`),
+    or T2M's pre-trained one when ``t2m_checkpoint``, ``glove_dir`` and ``t2m_meta_dir`` are set.
 
     Attributes:
-        fps: the evaluator's motion rate (clips at another rate are resampled; MoFusion: 20).
+        fps: the evaluator's motion rate (clips at another rate are resampled; MoFusion and T2M: 20).
         batch: R-precision's retrieval batch (T2M: 32).
         top_k: R-precision's k (T2M's Top-3).
         group_key: ``clip.meta`` key grouping generations of one caption (Multi-Modality).
+        t2m_checkpoint: T2M's ``text_mot_match/model/finest.tar`` (a local file).
+        glove_dir: T2M's ``glove/`` folder (``our_vab_data.npy``, ``our_vab_words.pkl``, ``our_vab_idx.pkl``).
+        t2m_meta_dir: the folder of the evaluator's ``mean.npy`` / ``std.npy`` (T2M's
+            ``checkpoints/t2m/Comp_v6_KLD01/meta``).
     """
 
     fps: float = 20.0
     batch: int = 32
     top_k: int = 3
     group_key: str = "condition_id"
+    t2m_checkpoint: str | None = None
+    glove_dir: str | None = None
+    t2m_meta_dir: str | None = None
 
 
 @dataclass
@@ -255,7 +312,7 @@ class TextMotionMetric:
 
     cfg: TextMetricConfig
     name: str
-    evaluator: TextMotionEvaluator
+    evaluator: TextEvaluator
     needs_reference: bool = False
 
     def _poses(self, clips: Sequence[Any]) -> list[np.ndarray]:
@@ -280,7 +337,7 @@ class TextMotionMetric:
             }
         if any(not c.text for c in clips):
             raise ValueError(f"{self.name}: every clip needs the caption it was generated for (Clip.text)")
-        text = self.evaluator.embed_texts([str(c.text[0]) for c in clips])
+        text = self.evaluator.embed_texts([str(c.text[0]) for c in clips], [caption_tokens(c) for c in clips])
         if self.name == "mm_dist":
             return {self.name: float(mm_distances(text, motion).mean())}
         return {
@@ -291,11 +348,26 @@ class TextMotionMetric:
 
 
 def _factory(name: str) -> Any:
-    def build(
-        cfg: TextMetricConfig, evaluator: TextMotionEvaluator | None = None, **deps: Any
-    ) -> TextMotionMetric:
+    def build(cfg: TextMetricConfig, evaluator: TextEvaluator | None = None, **deps: Any) -> TextMotionMetric:
+        paths = {
+            "t2m_checkpoint": cfg.t2m_checkpoint,
+            "glove_dir": cfg.glove_dir,
+            "t2m_meta_dir": cfg.t2m_meta_dir,
+        }
+        if evaluator is None and any(paths.values()):
+            unset = [k for k, v in paths.items() if not v]
+            if unset:
+                raise ValueError(f"{name}: T2M's evaluator also needs {', '.join(unset)} (local paths)")
+            from momu.metrics.t2m_evaluator import T2MEvaluator
+
+            evaluator = T2MEvaluator.load(str(cfg.t2m_checkpoint), str(cfg.glove_dir), str(cfg.t2m_meta_dir))
+        if evaluator is not None and evaluator.kind == "t2m" and cfg.fps != 20.0:
+            raise ValueError(f"{name}: T2M's evaluator reads 20 fps motion; fps is {cfg.fps}")
         if evaluator is None:
-            raise ValueError(f"{name}: needs evaluator=<TextMotionEvaluator> (train one or load a folder)")
+            raise ValueError(
+                f"{name}: needs evaluator=<a text–motion evaluator>, or T2M's with t2m_checkpoint, "
+                "glove_dir and t2m_meta_dir (local paths)"
+            )
         return TextMotionMetric(cfg, name, evaluator)
 
     build.__name__ = f"build_{name}"

@@ -8,9 +8,10 @@ from typing import Any
 
 from momu.engine.trainer import TrainConfig
 
-__all__ = ["MoFusionConfig", "MoFusionEvalConfig", "TASKS", "check_config"]
+__all__ = ["MoFusionConfig", "MoFusionEvalConfig", "TASKS", "EVALUATOR_KINDS", "check_config"]
 
 TASKS = ("music", "text")
+EVALUATOR_KINDS = ("momu", "t2m")
 
 
 def _node(name: str, **params: Any) -> Callable[[], dict[str, Any]]:
@@ -36,9 +37,17 @@ class MoFusionEvalConfig:
         batch_size: sequences generated per batch (per process).
         r_precision_batch: T2M's retrieval batch (32) for R-precision (Table 2).
         top_k: R-precision's k (T2M's Top-3; the paper does not say which, A16).
-        evaluator: the text–motion evaluator's settings (Table 2; :class:`TextMotionEvaluatorConfig`
-            fields, trained on the train split per seed).
-        evaluator_checkpoint: a user-supplied evaluator folder used instead of training one.
+        evaluator: the from-scratch text–motion evaluator's settings (Table 2;
+            :class:`TextMotionEvaluatorConfig` fields, trained on the train split per seed).
+        evaluator_kind: ``momu`` (that evaluator, or a folder it saved: ``evaluator_checkpoint``) or
+            ``t2m`` (T2M's pre-trained evaluator: ``evaluator_checkpoint`` = its ``finest.tar``,
+            ``glove_dir``, ``evaluator_meta_dir``; without all three the from-scratch one is trained,
+            with a warning). Each seed records the evaluator used (``artifacts.text_evaluator``).
+        evaluator_checkpoint: ``momu``: an evaluator folder used instead of training one; ``t2m``:
+            T2M's ``checkpoints/t2m/text_mot_match/model/finest.tar``.
+        glove_dir: ``t2m``: T2M's ``glove/`` folder (``our_vab_data.npy``, ``_words.pkl``, ``_idx.pkl``).
+        evaluator_meta_dir: ``t2m``: the folder of the evaluator's ``mean.npy`` / ``std.npy`` (T2M's
+            ``checkpoints/t2m/Comp_v6_KLD01/meta``).
     """
 
     split: str = "test"
@@ -54,7 +63,10 @@ class MoFusionEvalConfig:
     r_precision_batch: int = 32
     top_k: int = 3
     evaluator: dict[str, Any] = field(default_factory=dict)
+    evaluator_kind: str = "momu"
     evaluator_checkpoint: str | None = None
+    glove_dir: str | None = None
+    evaluator_meta_dir: str | None = None
 
 
 @dataclass
@@ -124,3 +136,7 @@ def check_config(cfg: MoFusionConfig) -> None:
         raise ValueError("method.evaluation: multimodality_samples >= 2 and multimodality_clips >= 1")
     if ev.top_k < 1 or ev.r_precision_batch < ev.top_k:
         raise ValueError("method.evaluation: need 1 <= top_k <= r_precision_batch")
+    if ev.evaluator_kind not in EVALUATOR_KINDS:
+        raise ValueError(
+            f"method.evaluation.evaluator_kind must be one of {EVALUATOR_KINDS}, got {ev.evaluator_kind!r}"
+        )

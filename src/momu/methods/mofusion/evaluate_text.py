@@ -3,8 +3,10 @@
 Per evaluation clip *i* (the first ``num_clips`` test clips, cut to ``seconds``) the model generates
 from clip *i*'s caption (``row``) and — same sampling seed — from clip π(i)'s caption (*other
 condition*). A text–motion evaluator (:mod:`momu.metrics.text_motion`) is trained from scratch on
-the train split per seed (or loaded from ``evaluation.evaluator_checkpoint``) and scores, on its
-embeddings:
+the train split per seed (or loaded from ``evaluation.evaluator_checkpoint``) — or, with
+``evaluation.evaluator_kind: t2m`` and its three paths, T2M's pre-trained evaluator
+(:mod:`momu.metrics.t2m_evaluator`) — and scores, on its embeddings (each seed records which
+evaluator in ``Scores.artifacts["text_evaluator"]``):
 
 * ``r_precision`` (↑) — T2M's top-k R-precision in batches of 32, per clip a 0/1 hit; *shuffled* =
   clip π(i)'s ground-truth motion retrieved for clip i's caption, *ground truth* = clip i's own;
@@ -17,6 +19,7 @@ embeddings:
 from __future__ import annotations
 
 import dataclasses
+import logging
 from typing import Any
 
 import numpy as np
@@ -44,9 +47,12 @@ from momu.methods.mofusion.evaluate import eval_clips, fit_mofusion, repeated_sa
 from momu.methods.momu.generation import eval_seeds
 from momu.methods.momu.scoring import derangement
 from momu.methods.momu.stages import stage_step
+from momu.metrics.t2m_evaluator import T2MEvaluator
 from momu.metrics.text_motion import (
+    TextEvaluator,
     TextMotionEvaluator,
     TextMotionEvaluatorConfig,
+    caption_tokens,
     embedding_diversity,
     embedding_multimodality,
     mm_distances,
@@ -54,7 +60,9 @@ from momu.metrics.text_motion import (
     vocab_from,
 )
 
-__all__ = ["evaluator_for", "evaluate_text", "calibrate_text"]
+__all__ = ["evaluator_for", "t2m_evaluator", "evaluate_text", "calibrate_text"]
+
+log = logging.getLogger(__name__)
 
 OTHER = "other condition"
 _EVAL_TRAIN = {"steps": 400, "batch_size": 32, "lr": 1.0e-3, "warmup_steps": 20, "lr_schedule": "cosine"}
@@ -77,11 +85,45 @@ def _poses(clips: list[Clip], fps: float) -> list[np.ndarray]:
     return [encode_pose(resample_motion(global_positions(c), c.fps, fps)) for c in clips]
 
 
-def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> TextMotionEvaluator:
-    """The text–motion evaluator of this seed: the user's (``evaluator_checkpoint``) or one trained
-    from scratch on the train split (a cached stage ``t2m_evaluator-<hash>``)."""
+_T2M_PATHS = ("evaluator_checkpoint", "glove_dir", "evaluator_meta_dir")
+
+
+def t2m_evaluator(cfg: DictConfig) -> T2MEvaluator | None:
+    """T2M's pre-trained evaluator when ``evaluation.evaluator_kind`` is ``t2m`` and its three paths
+    are set; ``None`` otherwise (with a warning naming the unset options when the kind is ``t2m``).
+
+    Raises:
+        DataFileError: a path that does not hold T2M's files.
+        ValueError: the model does not run at T2M's 20 fps.
+    """
     ev = cfg.method.evaluation
-    if ev.evaluator_checkpoint:
+    if str(ev.get("evaluator_kind") or "momu") != "t2m":
+        return None
+    unset = [f"method.evaluation.{k}" for k in _T2M_PATHS if not ev.get(k)]
+    if unset:
+        log.warning(
+            "evaluator_kind=t2m but %s not set (T2M's finest.tar, glove/ and meta/ with mean.npy, std.npy): "
+            "training momu's own text–motion evaluator instead",
+            ", ".join(unset),
+        )
+        return None
+    if float(cfg.method.fps) != 20.0:
+        raise ValueError(
+            f"method.evaluation.evaluator_kind=t2m reads 20 fps motion; method.fps is {cfg.method.fps}"
+        )
+    checkpoint, glove_dir, meta_dir = (str(ev.get(k)) for k in _T2M_PATHS)
+    return T2MEvaluator.load(checkpoint, glove_dir, meta_dir)
+
+
+def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> TextEvaluator:
+    """The text–motion evaluator of this seed: T2M's (:func:`t2m_evaluator`), the user's momu folder
+    (``evaluator_checkpoint``) or one trained from scratch on the train split (a cached stage
+    ``t2m_evaluator-<hash>``)."""
+    ev = cfg.method.evaluation
+    pretrained = t2m_evaluator(cfg)
+    if pretrained is not None:
+        return pretrained
+    if ev.evaluator_checkpoint and str(ev.get("evaluator_kind") or "momu") == "momu":
         return TextMotionEvaluator.load(ev.evaluator_checkpoint)
     fps, seconds = float(cfg.method.fps), float(cfg.method.window_seconds)
     clips = [dataset[i] for i in split_indices(dataset, "train", "text")]
@@ -116,7 +158,12 @@ def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> 
             collate_text,
         )
     assert isinstance(trained, TextMotionEvaluator)
+    trained.source = f"momu evaluator trained from scratch on the train split (seed {seed})"
     return trained.to("cpu").eval()
+
+
+def _texts(evaluator: TextEvaluator, clips: list[Clip]) -> np.ndarray:
+    return evaluator.embed_texts([clip_caption(c) for c in clips], [caption_tokens(c) for c in clips])
 
 
 def _generate(
@@ -140,7 +187,7 @@ def _generate(
 
 
 def _multimodality(
-    ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int, evaluator: Any
+    ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int, evaluator: TextEvaluator
 ) -> float:
     jobs, res = repeated_samples(ctx, model.text_to_motion, [clip_caption(c) for c in truth], ev, seed)
     k = int(ev.multimodality_samples)
@@ -169,7 +216,7 @@ def evaluate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     evaluator = evaluator_for(ctx, cfg, dataset, seed)
     samples = _generate(ctx, model, truth, ev, seed)
     with ctx.timed("metrics"):
-        text = evaluator.embed_texts([clip_caption(c) for c in truth])
+        text = _texts(evaluator, truth)
         gt = evaluator.embed_motions(_poses(truth, model.fps))
         perm = derangement(len(truth))
         emb = {
@@ -180,6 +227,7 @@ def evaluate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         }
         scores = _scores(text, emb, ev)
         scores.artifacts["model"] = folder
+        scores.artifacts["text_evaluator"] = evaluator.describe()
         scores.add_seed_value("diversity", "ground truth", embedding_diversity(gt))
         scores.add_seed_value("diversity", "shuffled", embedding_diversity(gt[perm]))
         scores.metrics["r_precision_other_condition"] = float(scores.clips["r_precision"][OTHER].mean())
@@ -195,10 +243,13 @@ def calibrate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sco
     truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text")
     evaluator = evaluator_for(ctx, cfg, dataset, seed)
     with ctx.timed("metrics"):
-        text = evaluator.embed_texts([clip_caption(c) for c in truth])
+        text = _texts(evaluator, truth)
         gt = evaluator.embed_motions(_poses(truth, float(method.cfg.fps)))
         perm = derangement(len(truth))
-        return {
+        out = {
             "real text–motion pairs": _scores(text, {ROW: gt}, ev),
             "text and motion shuffled": _scores(text, {ROW: gt[perm]}, ev),
         }
+        for sc in out.values():
+            sc.artifacts["text_evaluator"] = evaluator.describe()
+        return out

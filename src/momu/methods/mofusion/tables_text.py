@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from omegaconf import DictConfig
+
 from momu.engine.table import Column, PaperRow, Row, TableSpec
-from momu.methods.mofusion.evaluate_text import calibrate_text, evaluate_text
+from momu.methods.mofusion.evaluate_text import calibrate_text, evaluate_text, t2m_evaluator
 from momu.methods.mofusion.tables import CONFIGS, SMOKE, paper_preset
 
 __all__ = ["TEXT_CONFIG", "TEXT_PRESETS", "table2_spec"]
@@ -38,6 +40,11 @@ BASELINES = (
 )
 
 
+def check_evaluator(cfg: DictConfig) -> None:
+    """Before training: T2M's evaluator, when configured, loads (bad files fail here, exit 2)."""
+    t2m_evaluator(cfg)
+
+
 def table2_spec() -> TableSpec:
     """MoFusion Table 2 with the cpu preset's ``text_transformer`` (the paper preset: ``clip_text``)."""
     columns = [
@@ -55,10 +62,13 @@ def table2_spec() -> TableSpec:
         )
     ]
     notes = (
-        "Evaluator: a caption encoder and a motion encoder trained from scratch with a symmetric InfoNCE "
-        "loss on this run's train split, per seed (momu.metrics.text_motion), stand in for T2M's "
-        "pre-trained evaluator; embeddings are unit vectors, so Diversity, Multi-Modality and MM-Dist "
-        "lie in [0, 2], not on T2M's scale (9.5). Compare our row with the calibration rows.",
+        "Evaluator: unless T2M's pre-trained evaluator is given (method.evaluation.evaluator_kind=t2m with "
+        "evaluator_checkpoint=finest.tar, glove_dir and evaluator_meta_dir; the paper preset asks for it and "
+        "falls back with a warning), a caption encoder and a motion encoder trained from scratch with a "
+        "symmetric InfoNCE loss on this run's train split, per seed (momu.metrics.text_motion), stand in for "
+        "it; their embeddings are unit vectors, so Diversity, Multi-Modality and MM-Dist lie in [0, 2], not "
+        "on T2M's scale (9.5). Each seed's artifacts.text_evaluator says which evaluator ran. Compare our "
+        "row with the calibration rows.",
         "R-precision: T2M's protocol, top-3 within batches of 32 (the paper does not say which k; its "
         "0.797 for real motions matches T2M's Top-3), per clip a 0/1 hit, compared clip by clip with the "
         "shuffled pairs (clip π(i)'s motion for clip i's caption), real pairs and the same model given "
@@ -70,7 +80,9 @@ def table2_spec() -> TableSpec:
         "the text encoder is the from-scratch text_transformer (CLIP weights cannot be downloaded; "
         "clip_text loads a user's checkpoint at the paper preset).",
         "The paper's R-precision needs IK from joints to T2M's 263-d features ('(1740)' in §4.2 is "
-        "unexplained); our evaluator reads the pose vectors directly, so no IK enters.",
+        "unexplained): with T2M's evaluator the 22 joints are converted by momu.features.humanml_vec "
+        "(HumanML3D's process_file, without its retargeting step); the from-scratch evaluator reads the "
+        "pose vectors directly.",
     )
     return TableSpec(
         name="mofusion_table2",
@@ -83,4 +95,5 @@ def table2_spec() -> TableSpec:
         evaluate=evaluate_text,
         calibrate=calibrate_text,
         notes=notes,
+        check=check_evaluator,
     )
