@@ -191,6 +191,12 @@ def main() -> None:
         "--music", action="store_true", help="also score motion→music (θ_a) against the clips' music"
     )
     parser.add_argument("--eval-clips", type=int, default=6)
+    parser.add_argument(
+        "--splits",
+        default="test,val",
+        help="held-out splits the crops come from, in order (rounds 1-4 used test,val; "
+        "choose settings on val only: a setting picked on test is tuned on the evaluation split)",
+    )
     parser.add_argument("--seconds", type=float, default=4.0)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--gen-seed", type=int, default=0, help="offset of the per-clip noise seeds")
@@ -210,7 +216,7 @@ def main() -> None:
     print(f"train_seconds: {time.perf_counter() - t0:.0f} ({ctx.trained})")
 
     truth: list[Clip] = []
-    for split in ("test", "val"):  # held-out clips: test first, then val
+    for split in args.splits.split(","):  # held-out clips, in the order given
         try:
             truth += eval_crops(dataset, split, args.eval_clips - len(truth), [args.seconds])
         except ValueError:

@@ -37,10 +37,16 @@ def tiny_dit_shortcuts(**kw: object) -> DiT:
     return tiny_dit(cond_add=True, time_to_all_tokens=True, **kw)
 
 
+def tiny_dit_additive(**kw: object) -> DiT:
+    """The condition enters by frame-aligned addition only (no condition tokens)."""
+    return tiny_dit(positions="aligned", cond_add=True, cond_tokens=False, **kw)
+
+
 BUILDERS = {
     "dit": tiny_dit,
     "dit_aligned": tiny_dit_aligned,
     "dit_shortcuts": tiny_dit_shortcuts,
+    "dit_additive": tiny_dit_additive,
     "unet1d": tiny_unet,
 }
 ALL = list(BUILDERS)
@@ -191,11 +197,21 @@ def test_dit_pad_to_max_is_a_no_op(positions: str) -> None:
         ({"depth": 0}, "depth must be positive"),
         ({"positions": "relative"}, "positions"),
         ({"positions": "aligned", "segment_embeddings": False}, "segment_embeddings"),
+        ({"cond_tokens": False}, "cond_add"),
     ],
 )
 def test_dit_config_errors(kw: dict[str, object], match: str) -> None:
     with pytest.raises(ValueError, match=match):
         tiny_dit(**kw)
+
+
+def test_additive_conditioning_attends_over_latent_frames_and_the_timestep_only() -> None:
+    model = tiny_dit_additive()
+    weights: list[torch.Tensor] = []
+    for block in model.blocks:
+        block.attn.recorder = weights
+    model(torch.randn(2, 10, 4), torch.tensor([3, 4]), torch.randn(2, 10, 3))
+    assert weights and all(w.shape[-1] == 10 + 1 for w in weights)  # [x | t]: no condition tokens
 
 
 def test_null_embedding_is_trained_by_dropped_items() -> None:

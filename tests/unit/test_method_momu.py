@@ -459,3 +459,46 @@ def test_variable_length_training_masks_prefixes_within_the_window_and_keys_the_
     assert all(bool((m[:, :-1] >= m[:, 1:]).all()) for m in music.masks)  # valid frames first
     stage.eval()
     assert stage.length_mask(8, 10, torch.device("cpu")) is None  # evaluation sees whole windows
+
+
+def test_per_batch_lengths_cut_every_item_to_one_length_without_a_mask() -> None:
+    from momu.methods.momu.stages import DiffusionStage
+
+    data = {"name": "synth_dance"}
+    per_item = build_component(load_config(tiny_config(train_min_seconds=0.5)).method, "methods")
+    per_batch = build_component(
+        load_config(tiny_config(train_min_seconds=0.5, train_lengths="batch")).method, "methods"
+    )
+    assert per_item.stage_keys(data, 0)["diffusion"] != per_batch.stage_keys(data, 0)["diffusion"]
+
+    class Record(nn.Module):  # records the shapes and masks the loss hands the backbone
+        in_channels = cond_channels = 4
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.w = nn.Parameter(torch.zeros(()))
+            self.calls: list[tuple[int, int, object]] = []
+
+        def forward(self, x, t, cond=None, *, x_mask=None, cond_mask=None, drop_cond=None):
+            self.calls.append((x.shape[1], cond.shape[1], x_mask))
+            return x * self.w
+
+    loss = build_component(
+        {"name": "diffusion"}, "losses", scheduler=build_component({"name": "ddpm"}, "schedulers")
+    )
+    music, motion = Record(), Record()
+    stage = DiffusionStage(music, motion, loss, 4, min_frames=3, per_batch=True).train()
+    torch.manual_seed(0)
+    for _ in range(40):
+        stage({"z_music": torch.randn(8, 10, 4), "z_motion": torch.randn(8, 10, 4)})
+    lengths = [n for n, _, _ in music.calls]
+    assert all(n == c and mask is None for n, c, mask in music.calls + motion.calls)  # no padding
+    assert [n for n, _, _ in motion.calls] == lengths  # θ_a and θ_m see the same frames
+    assert min(lengths) == 3 and max(lengths) == 10 and len(set(lengths)) >= 6  # uniform on [3, 10]
+    stage.eval()
+    assert stage.batch_length(10) == 10  # evaluation sees whole windows
+
+
+def test_train_lengths_must_be_item_or_batch() -> None:
+    with pytest.raises(ValueError, match="method.train_lengths"):
+        build_component(load_config(tiny_config(train_lengths="clip")).method, "methods")

@@ -75,6 +75,11 @@ class DiTConfig:
         cond_add: also add the embedded condition frame ⌊p·L_c/L_x⌋ to latent frame p, on top
             of the condition tokens (not in the paper; the frame-aligned shortcut that lets a
             small model use a time-aligned condition from the first steps of training).
+        cond_tokens: put the embedded condition frames into the token sequence ``[x | cond | t]``
+            (MoMu §4). ``False`` (needs ``cond_add``) conditions by the frame-aligned addition
+            alone: the sequence is ``[x | t]``, half as long, and a dropped condition is the null
+            token added to every frame (not in the paper; the cpu preset's cost saving,
+            docs/presets.md).
         segment_embeddings: add a learned type embedding (latent / condition / timestep) to
             each token, so the model need not infer the segment from content (not in the paper).
         dropout: dropout in attention and feed-forward layers.
@@ -93,6 +98,7 @@ class DiTConfig:
     positions: str = "concat"
     time_to_all_tokens: bool = False
     cond_add: bool = False
+    cond_tokens: bool = True
     time_freq_dim: int = 256
     segment_embeddings: bool = True
     dropout: float = 0.0
@@ -124,6 +130,8 @@ class DiT(nn.Module):
             raise ValueError(
                 "dit.positions='aligned' needs dit.segment_embeddings=True (tokens share positions)"
             )
+        if not cfg.cond_tokens and cfg.cond_channels > 0 and not cfg.cond_add:
+            raise ValueError("dit.cond_tokens=false needs dit.cond_add=true (the condition would be unused)")
         if cfg.time_freq_dim % 2:
             raise ValueError(f"dit.time_freq_dim must be even, got {cfg.time_freq_dim}")
         self.cfg = cfg
@@ -207,6 +215,8 @@ class DiT(nn.Module):
                 src = src.clamp_max(c_tok.shape[1] - 1)
                 hx = hx + torch.gather(c_tok, 1, src[..., None].expand(-1, -1, c_tok.shape[-1])) * keep
         parts, masks = [hx], [x_mask]
+        if not self.cfg.cond_tokens:  # the condition entered by addition only
+            c_tok, c_mask, len_c = None, None, torch.zeros_like(len_x)
         if c_tok is not None and c_mask is not None:
             parts.append(c_tok)
             masks.append(c_mask)
@@ -257,7 +267,8 @@ class DiT(nn.Module):
         # Every token valid (known without reading the mask back from the device): no attention
         # mask at all, so SDPA may use its flash kernel (which takes none); otherwise the boolean
         # key-padding mask, which the memory-efficient and math kernels take (docs/performance.md).
-        dense = x_mask_given is None and cond_mask is None and drop_cond is None and not padded
+        cond_masked = c_tok is not None and (cond_mask is not None or drop_cond is not None)
+        dense = x_mask_given is None and not cond_masked and not padded
         attn_mask = None if dense else mask
 
         for block in self.blocks:

@@ -40,6 +40,8 @@ class MoMuEvalConfig:
         batch_size: clips generated per batch (per process).
         extractor_epochs: epochs of the FID/FAD feature extractors (trained once per run).
         extractor_samples_per_clip: windows/segments per clip per extractor epoch.
+        extractor_seed: seed of the extractors' training; fixed, not the models' seed, so every row
+            and seed of a table is scored by the same feature maps.
         extractor_embed_dim: width of the extractors' feature (0: the classifiers' own, 224-d motion
             and 128-d audio at the default sizes); a Fréchet distance needs more samples than feature
             dimensions for a full-rank covariance, so small evaluation sets use a narrower feature.
@@ -60,6 +62,7 @@ class MoMuEvalConfig:
     batch_size: int = 8
     extractor_epochs: int = 20
     extractor_samples_per_clip: int = 8
+    extractor_seed: int = 0
     extractor_embed_dim: int = 0
     beat_bin_seconds: float = 1.0
 
@@ -86,6 +89,10 @@ class MoMuConfig:
             a prefix of its window of a length uniform in ``[train_min_seconds, window_seconds]``
             (the rest masked), so variable-length evaluation samples lengths seen in training;
             ``None`` trains at the window length only.
+        train_lengths: how those lengths are drawn: ``item`` (each item its own, the rest of the
+            window masked) or ``batch`` (one length per batch, every item cut to it: the same
+            distribution of lengths with no padded tokens and no attention mask, so a step costs
+            what its valid frames cost).
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
         music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
@@ -111,6 +118,7 @@ class MoMuConfig:
     window_seconds: float = 4.0
     window_hop_seconds: float = 2.0
     train_min_seconds: float | None = None
+    train_lengths: str = "item"
     bone_correction: bool = False
     bone_ratio: float = 1.3
     music_sampler: Any = None
@@ -165,6 +173,8 @@ def check_config(cfg: MoMuConfig) -> None:
             f"method.train_min_seconds must be in (0, window_seconds={cfg.window_seconds}], "
             f"got {cfg.train_min_seconds}"
         )
+    if cfg.train_lengths not in ("item", "batch"):
+        raise ValueError(f"method.train_lengths must be 'item' or 'batch', got {cfg.train_lengths!r}")
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
 

@@ -161,7 +161,7 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
             f"method.evaluation: the '{ev.split}' split has {len(truth)} clip; the table needs 2 or more"
         )
     with ctx.timed("extractors"):
-        extractors = trained_extractors(ctx, dataset, data_key, ev, seed)
+        extractors = trained_extractors(ctx, dataset, data_key, ev)
     joint = ev.task == "joint"
     bins = float(ev.beat_bin_seconds)
     scores = Scores(
@@ -236,7 +236,7 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sco
     ev = method.cfg.evaluation
     truth = eval_crops(dataset, ev.split, ev.num_clips, [float(ev.seconds)])
     with ctx.timed("extractors"):
-        extractors = trained_extractors(ctx, dataset, data_key, ev, seed)
+        extractors = trained_extractors(ctx, dataset, data_key, ev)
     shuffled = _shuffled(truth)
     bins = float(ev.beat_bin_seconds)
     floors = _floors(extractors, dataset, ev, truth)

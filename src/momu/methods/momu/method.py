@@ -150,6 +150,7 @@ class MoMu:
             "scheduler": _plain(c.scheduler),
             "diffusion_loss": _plain(c.diffusion_loss),
             **({"train_min_seconds": c.train_min_seconds} if c.train_min_seconds is not None else {}),
+            **({"train_lengths": c.train_lengths} if c.train_lengths != "item" else {}),
             "train": dataclasses.asdict(c.train_diffusion),
             "seed": seed,
         }
@@ -218,7 +219,9 @@ class MoMu:
         scheduler = build_component(c.scheduler, "schedulers")
         loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
         min_frames = None if c.train_min_seconds is None else rates.latent_frames(c.train_min_seconds)
-        diffusion = DiffusionStage(music_bb, motion_bb, loss, vae.latent_channels, min_frames)
+        diffusion = DiffusionStage(
+            music_bb, motion_bb, loss, vae.latent_channels, min_frames, per_batch=c.train_lengths == "batch"
+        )
 
         def latent_data() -> LatentDataset:
             z_music, z_motion = encode_windows(vae, windows())

@@ -46,7 +46,10 @@ _TINY_VAE = (
     "{latent_channels: 8, base_channels: 8, channel_mult: [1, 2], num_res_blocks: 1, attention_layers: 1,"
     " attention_heads: 2, norm_groups: 4}"
 )
-_TINY_DIT = "{name: dit, hidden: 32, heads: 2, depth: 1, cond_embed_dim: 32, max_length: 256}"
+_TINY_DIT = (
+    "{name: dit, hidden: 32, heads: 2, depth: 1, cond_embed_dim: 32, max_length: 256, cond_add: true, "
+    "cond_tokens: false, positions: aligned}"
+)
 
 PRESETS: dict[str, list[str]] = {
     "smoke": [

@@ -207,20 +207,23 @@ def trained_extractors(
     dataset: Any,
     data_key: Mapping[str, Any],
     cfg: Any,
-    seed: int,
     kinds: Sequence[str] = ("motion", "audio"),
 ) -> dict[str, Any]:
-    """The FID/FAD feature extractors of ``kinds``, trained once per run and seed on the train split.
+    """The FID/FAD feature extractors of ``kinds``, trained once per dataset on its train split.
 
     ``cfg`` is the evaluation config (``extractor_epochs``, ``extractor_samples_per_clip``,
-    ``extractor_embed_dim``). Cached under ``<out>/parts/extractor-<kind>-<hash>.safetensors``
-    (the hash covers the data, the training settings and the seed, not the kind list, so a run that
+    ``extractor_embed_dim``, ``extractor_seed``). The extractors do not depend on the models'
+    training seed: every row and seed of a table is scored by the same feature maps, so the spread
+    over seeds is the models' alone (docs/statistics.md). Cached under
+    ``<out>/parts/extractor-<kind>-<hash>.safetensors`` (the hash covers the data, the training
+    settings and the extractor seed, not the kind list, so a run that
     needs only the motion classifier shares its file with one that needs both); the main process
     trains, the others wait and load the same files.
     """
     from momu.methods.momu.data import select_split
 
     embed = int(getattr(cfg, "extractor_embed_dim", 0) or 0)
+    seed = int(getattr(cfg, "extractor_seed", 0))
     key = {
         "data": dict(data_key),
         "epochs": int(cfg.extractor_epochs),

@@ -144,12 +144,14 @@ class DiffusionStage(nn.Module):
         loss: DiffusionLoss,
         latent: int,
         min_frames: int | None = None,
+        per_batch: bool = False,
     ) -> None:
         super().__init__()
         self.music_backbone = music_backbone
         self.motion_backbone = motion_backbone
         self.loss = loss
         self.min_frames = min_frames
+        self.per_batch = per_batch
         for name in ("music_mean", "motion_mean"):
             self.register_buffer(name, torch.zeros(latent))
         for name in ("music_std", "motion_std"):
@@ -171,19 +173,31 @@ class DiffusionStage(nn.Module):
     def standardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
         return (z - getattr(self, f"{modality}_mean")) / getattr(self, f"{modality}_std")
 
+    def _variable_length(self) -> bool:
+        return self.min_frames is not None and self.training
+
     def length_mask(self, batch: int, frames: int, device: torch.device) -> torch.Tensor | None:
         """Variable-length training (MoMu §5.3): item ``i`` keeps its first ``L_i`` latent frames,
         ``L_i`` uniform in ``[min_frames, frames]`` (drawn from the global RNG, which the engine
-        seeds per process and checkpoints); ``None`` when training at the window length only."""
-        if self.min_frames is None or self.min_frames >= frames or not self.training:
+        seeds per process and checkpoints); ``None`` when training at the window length only or
+        when lengths are drawn per batch (:meth:`batch_length`)."""
+        if not self._variable_length() or self.per_batch or self.min_frames >= frames:  # type: ignore[operator]
             return None
-        lengths = torch.randint(self.min_frames, frames + 1, (batch,))
+        lengths = torch.randint(self.min_frames, frames + 1, (batch,))  # type: ignore[arg-type]
         return (torch.arange(frames)[None, :] < lengths[:, None]).to(device)
+
+    def batch_length(self, frames: int) -> int:
+        """Per-batch variable length: one ``L`` uniform in ``[min_frames, frames]`` for the whole
+        batch (the same distribution per item as :meth:`length_mask`, without padding)."""
+        if not self._variable_length() or not self.per_batch or self.min_frames >= frames:  # type: ignore[operator]
+            return frames
+        return int(torch.randint(self.min_frames, frames + 1, ()))  # type: ignore[arg-type]
 
     def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
         """``(L_a + L_m, logs)``; the logs are detached tensors (read back only at logging steps)."""
-        z_a = self.standardise(batch["z_music"], "music")
-        z_m = self.standardise(batch["z_motion"], "motion")
+        length = self.batch_length(batch["z_music"].shape[1])
+        z_a = self.standardise(batch["z_music"][:, :length], "music")
+        z_m = self.standardise(batch["z_motion"][:, :length], "motion")
         mask = self.length_mask(z_a.shape[0], z_a.shape[1], z_a.device)  # aligned latents: one length
         loss_a = self.loss(
             self.music_backbone, z_a, z_m, x_mask=mask, cond_mask=mask

@@ -150,9 +150,9 @@ def evaluate_motion_to_music(
 
 
 # ---------------------------------------------------------------------------------------- music→motion
-def _quality_extractor(ctx: RunContext, dataset: Any, data_key: Any, ev: Any, seed: int) -> Any:
+def _quality_extractor(ctx: RunContext, dataset: Any, data_key: Any, ev: Any) -> Any:
     with ctx.timed("extractors"):
-        return trained_extractors(ctx, dataset, data_key, ev, seed, kinds=("motion",))["motion"]
+        return trained_extractors(ctx, dataset, data_key, ev, kinds=("motion",))["motion"]
 
 
 def _quality_cells(
@@ -204,7 +204,7 @@ def evaluate_music_to_motion(
         shuffled = _shuffled(truth)
         bins = float(ev.beat_bin_seconds)
         if quality:
-            extractor = _quality_extractor(sctx, dataset, data_key, ev, seed)
+            extractor = _quality_extractor(sctx, dataset, data_key, ev)
             with ctx.timed("metrics"):
                 others = _floor_clips(dataset, ev, truth, sid)
                 scores.metrics.update(_quality_cells(extractor, gen[ROW], truth, sid))
@@ -257,7 +257,7 @@ def calibrate_tables(
         moved = _shuffled(truth)
         bins = float(ev.beat_bin_seconds)
         if kind == "quality" or kind == "motion_quality":
-            extractor = _quality_extractor(sctx, dataset, to_container(scfg.dataset), ev, seed)
+            extractor = _quality_extractor(sctx, dataset, to_container(scfg.dataset), ev)
             floor = _quality_cells(extractor, _floor_clips(dataset, ev, truth, sid), truth, sid)
             gt.metrics.update(floor)
             kld = float(np.mean(_kl_per_clip(extractor, moved, truth)))
