@@ -30,8 +30,9 @@ every window boundary — where newly generated frames meet known ones — again
 the same statistic on real-like data (synth_dance clips of the same skeleton, at their own frame rate)
 and on the generated dance away from the boundaries; and the largest jump anywhere across the known
 frames a window was inpainted on (a soft-masked edge spreads its transition over them). One song says
-little about the tails, so ``seams_over_songs`` repeats both schedules on ``--seam-songs`` more songs
-(same length; untimed) and compares them per song with 95 % t-intervals.
+little about the tails, so ``seams_over_songs`` repeats both schedules (and two-pass with hard bridge
+edges, the ablation of the soft mask) on ``--seam-songs`` more songs (same length; untimed) and compares
+them per song with 95 % t-intervals.
 """
 
 from __future__ import annotations
@@ -120,23 +121,40 @@ def _zone_maxima(plan: Any, jumps: np.ndarray, per_latent: int) -> list[float]:
 
 
 def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
-    """Both schedules on ``--seam-songs`` more songs (synth seeds 200…, dance seeds 0…): pooled seam and
-    edge-zone statistics, and per-song differences (two_pass − sequential) with 95 % t-intervals."""
+    """Both schedules, and two-pass with hard bridge edges (the soft mask's ablation), on ``--seam-songs``
+    more songs (synth seeds 200…, dance seeds 0…): pooled seam and edge-zone statistics, and per-song
+    differences from the sequential schedule with 95 % t-intervals."""
     import torch
 
     torch.set_num_threads(args.threads)
     from momu.cli.generate_io import default_model_dir
     from momu.data.synth.dataset import SynthConfig, generate_clip
-    from momu.generation import seam_jumps, velocity_jumps
+    from momu.generation import seam_jumps, stitched_sample, velocity_jumps
     from momu.generation.follows_music import interval
-    from momu.generation.momu_long import music_to_motion_long, plan_for_seconds
+    from momu.generation.momu_long import music_to_motion_long, plan_for_seconds, window_frames
     from momu.methods.momu import MoMuModel
 
     model = MoMuModel.load(args.model or default_model_dir("dance"))
     fps, per_latent = model.rates.motion_fps, model.rates.motion_frames_per_latent
     clips = [generate_clip(SynthConfig(num_clips=8, skeleton=model.skeleton, seed=9), i) for i in range(8)]
     p95 = float(np.percentile(np.concatenate([velocity_jumps(c.motion, c.fps) for c in clips]), 95))
-    per_song: dict[str, list[dict[str, float]]] = {"two_pass": [], "sequential": []}
+
+    def dance(song: Any, seed: int, variant: str) -> np.ndarray:
+        if variant != "two_pass_hard_edges":
+            return music_to_motion_long(model, [song.audio], song.sample_rate, [seed], schedule=variant)[0]
+        window, overlap = window_frames(model, "motion")  # the ablation: bridges keep known frames exactly
+        cond = model.encode_music(song.audio, song.sample_rate)
+        (z,) = stitched_sample(
+            model.sampler_for("motion"), model.motion_backbone, [cond], [seed], model.latent_channels,
+            window=window, overlap=overlap, soft_edges=False,
+        )  # fmt: skip
+        return model.decode_motion(z)
+
+    per_song: dict[str, list[dict[str, float]]] = {
+        "two_pass": [],
+        "two_pass_hard_edges": [],
+        "sequential": [],
+    }
     pooled: dict[str, dict[str, list[float]]] = {k: {"seams": [], "zones": []} for k in per_song}
     for i in range(args.seam_songs):
         cfg = SynthConfig(
@@ -147,14 +165,14 @@ def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
             seed=200 + i,
         )
         song = generate_clip(cfg, 0)
-        for schedule in per_song:
-            (motion,) = music_to_motion_long(model, [song.audio], song.sample_rate, [i], schedule=schedule)
-            plan = plan_for_seconds(model, args.seconds, schedule=schedule)
+        for variant in per_song:
+            motion = dance(song, i, variant)
+            plan = plan_for_seconds(model, args.seconds, schedule=variant.replace("_hard_edges", ""))
             seams = seam_jumps(motion, [b * per_latent for b in plan.boundaries], fps)
             zones = _zone_maxima(plan, velocity_jumps(motion, fps), per_latent)
-            pooled[schedule]["seams"] += seams.tolist()
-            pooled[schedule]["zones"] += zones
-            per_song[schedule].append(
+            pooled[variant]["seams"] += seams.tolist()
+            pooled[variant]["zones"] += zones
+            per_song[variant].append(
                 {"seam_median": float(np.median(seams)), "zone_median": float(np.median(zones))}
             )
     out: dict[str, Any] = {"songs": args.seam_songs, "data_p95": round(p95, 3)}
@@ -172,8 +190,11 @@ def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
             "zones_above_1.5x_data_p95": round(float(np.mean(zones > 1.5 * p95)), 4),
         }
     for key in ("seam_median", "zone_median"):
-        diff = np.asarray([a[key] - b[key] for a, b in zip(per_song["two_pass"], per_song["sequential"])])
-        out[f"per_song_{key}_two_pass_minus_sequential"] = {k: round(v, 3) for k, v in interval(diff).items()}
+        for variant in ("two_pass", "two_pass_hard_edges"):
+            diff = np.asarray([a[key] - b[key] for a, b in zip(per_song[variant], per_song["sequential"])])
+            out[f"per_song_{key}_{variant}_minus_sequential"] = {
+                k: round(v, 3) for k, v in interval(diff).items()
+            }
     return out
 
 

@@ -195,6 +195,29 @@ def test_two_pass_bridges_join_the_anchors_they_were_inpainted_on(
         assert torch.equal(z[lo:hi], anchors[0][j][lo - plan.starts[k] : hi - plan.starts[k]])
 
 
+def test_two_pass_with_hard_edges_keeps_every_known_frame(model, monkeypatch: pytest.MonkeyPatch) -> None:
+    from momu.samplers.inpainting import InpaintingSampler
+
+    calls: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
+    original = InpaintingSampler.sample
+
+    def spy(self, backbone, known, known_mask=None, cond=None, **kwargs):
+        out = original(self, backbone, known, known_mask, cond, **kwargs)
+        calls.append((known.clone(), known_mask.clone(), out.clone()))
+        return out
+
+    monkeypatch.setattr(InpaintingSampler, "sample", spy)
+    window, overlap = window_frames(model, "motion")
+    cond = model.encode_music(_song(9.0), 16000)
+    stitched_sample(
+        model.sampler_for("motion"), model.motion_backbone, [cond], [0], model.latent_channels,
+        window=window, overlap=overlap, soft_edges=False,
+    )  # fmt: skip
+    ((known, mask, out),) = calls
+    assert mask.dtype == torch.bool and int(mask[0].sum()) == 2 * overlap
+    assert torch.equal(out[mask], known[mask])
+
+
 def test_two_pass_starts_like_one_window_after_another_and_ignores_batching(model) -> None:
     """Same seed, same first window as the sequential schedule (the noise of window 0 is the item
     seed's); splitting the windows into smaller batches changes only the summation order."""

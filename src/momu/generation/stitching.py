@@ -118,6 +118,7 @@ def stitched_sample(
     progress: Progress | None = None,
     schedule: str = "two_pass",
     max_batch_frames: int = MAX_BATCH_FRAMES,
+    soft_edges: bool = True,
 ) -> list[Tensor]:
     """One ``(L_i, channels)`` sample per condition ``(L_i, C)``, window by window (module docstring).
 
@@ -133,6 +134,8 @@ def stitched_sample(
             or ``"sequential"`` (:mod:`momu.generation.windows`).
         max_batch_frames: two-pass only: at most this many latent frames (windows × ``window``) per
             batch (at least one window).
+        soft_edges: two-pass only: a bridge's known frames are a soft mask (module docstring); False
+            keeps every known frame exactly, as the sequential schedule does.
     """
     if len(conds) != len(seeds):
         raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
@@ -143,7 +146,7 @@ def stitched_sample(
         raise ValueError(f"window {window} exceeds the backbone's max_length={max_length}")
     plans = [plan_windows(int(c.shape[0]), window, overlap, schedule) for c in conds]
     outs = [torch.zeros(int(c.shape[0]), channels) for c in conds]
-    job = _Job(sampler, backbone, conds, channels, guidance_scale)
+    job = _Job(sampler, backbone, conds, channels, guidance_scale, soft_edges and schedule == "two_pass")
     if schedule == "sequential":
         gens = [torch.Generator().manual_seed(int(s)) for s in seeds]
         for k in range(max(len(p.starts) for p in plans)):
@@ -170,10 +173,16 @@ class _Job:
     """Samples a batch of windows ``(item, window index)`` and writes them into the items' outputs."""
 
     def __init__(
-        self, sampler: object, backbone: Any, conds: Sequence[Tensor], channels: int, scale: float | None
+        self,
+        sampler: object,
+        backbone: Any,
+        conds: Sequence[Tensor],
+        channels: int,
+        scale: float | None,
+        soft: bool,
     ) -> None:
         self.sampler, self.backbone, self.conds = sampler, backbone, conds
-        self.channels, self.scale = channels, scale
+        self.channels, self.scale, self.soft = channels, scale, soft
         self.inpaint = inpainting_like(sampler)
         self.raw: dict[tuple[int, int], Tensor] = {}  # every window's own output, (item, window index)
 
@@ -200,7 +209,7 @@ class _Job:
             )
         else:
             known = torch.zeros_like(noise)
-            soft = plans[windows[0][0]].schedule == "two_pass"
+            soft = self.soft
             known_mask = torch.zeros(noise.shape[:2], dtype=noise.dtype if soft else torch.bool)
             for b, ((i, k), (s, e), (head, tail)) in enumerate(zip(windows, spans, known_frames)):
                 if head:  # the window before it generated these frames
