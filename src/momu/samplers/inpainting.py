@@ -12,8 +12,8 @@ in-betweening (keyframes known), see :func:`forecast_mask` and :func:`inbetween_
 
 A *soft* mask (float weights ``w`` in [0, 1] instead of booleans; not in MoFusion) blends instead of
 replacing: ``z_t ← w·q(z_t | z_0^known) + (1 − w)·z_t`` before every call and ``w·known + (1 − w)·z_0``
-at the end, so frames with ``w`` below 1 may move towards what the model generates next to them (the
-soft masking of the second take of DoubleTake, PriorMDM, Shafir et al. 2023). Weights 0 and 1 give
+at the end, so frames with ``w`` below 1 may move towards what the model generates next to them (in the
+spirit of the soft-masked transitions of DoubleTake, PriorMDM, Shafir et al. 2023). Weights 0 and 1 give
 exactly the hard mask's result.
 """
 
