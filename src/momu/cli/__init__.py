@@ -53,7 +53,8 @@ def _openmp_for(argv: Sequence[str]) -> None:
     (``OMP_WAIT_POLICY=PASSIVE`` unless the environment sets it; read when torch loads OpenMP, so
     before any import of torch). Generation runs thousands of small parallel operations; on a machine
     whose cores are shared with other jobs a spinning thread that waits for a descheduled one burns its
-    time slice, which made a 3-minute song 6x slower with 2 threads (benchmarks/bench_long_song.py)."""
+    time slice: 4-5x slower generation of a 3-minute song with 2 threads at load average 3-4
+    (benchmarks/results/bench_long_song_180s.json)."""
     command = next((a for a in argv if not a.startswith("-")), None)
     if command == "generate":
         os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

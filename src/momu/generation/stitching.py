@@ -69,7 +69,8 @@ of the cpu preset's 62 frames; bounds memory for long windows and large models."
 
 SPLIT_MIN_WINDOWS = 4
 """Batches of at least this many windows run CFG's unconditional branch as its own forward
-(:class:`momu.samplers.branches.SeparateNullBranch`); smaller ones gain nothing from it."""
+(:class:`momu.samplers.branches.SeparateNullBranch`); smaller ones gain little from it, and a song of
+one window then is exactly one-window generation (``MoMuModel.music_to_motion``)."""
 
 
 def inpainting_like(sampler: object) -> InpaintingSampler:
