@@ -77,7 +77,9 @@ def _songs(seconds: float) -> list:
     return out
 
 
-def evaluate(model_dir: Path, seconds: float) -> dict | None:
+def evaluate(model_dir: Path, seconds: float, schedule: str = "two_pass") -> dict | None:
+    """The held-out follows-music study of the model in ``model_dir`` on ``seconds`` of each real song,
+    long songs generated with the window ``schedule`` (:mod:`momu.generation.windows`)."""
     from momu.generation.follows_music import follow_music_study
     from momu.generation.momu_long import music_to_motion_long
     from momu.methods.momu import MoMuModel
@@ -89,12 +91,13 @@ def evaluate(model_dir: Path, seconds: float) -> dict | None:
     model = MoMuModel.load(model_dir)
 
     def generate(song, seed: int):
-        (motion,) = music_to_motion_long(model, [song.audio], song.sample_rate, [seed])
+        (motion,) = music_to_motion_long(model, [song.audio], song.sample_rate, [seed], schedule=schedule)
         return motion, model.rates.motion_fps
 
     start = time.time()
     result = follow_music_study(songs, generate, SEEDS)
     result["seconds_per_song"] = seconds
+    result["window_schedule"] = schedule
     result["wall_time_s"] = round(time.time() - start, 1)
     result["data"] = "Dance with Melody (8 public dances, ../shared/data): songs held out from training"
     return result

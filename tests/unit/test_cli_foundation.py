@@ -70,3 +70,19 @@ def test_console_script_runs() -> None:
     proc = subprocess.run([*command, "list", "methods"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("methods (")
+
+
+def test_generate_lets_waiting_openmp_threads_sleep(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`momu generate` sets OMP_WAIT_POLICY=PASSIVE before torch loads OpenMP, unless the user set it."""
+    import os
+
+    from momu.cli import _openmp_for
+
+    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
+    _openmp_for(["list"])
+    assert "OMP_WAIT_POLICY" not in os.environ
+    _openmp_for(["-v", "generate", "dance", "--music", "x.wav"])
+    assert os.environ["OMP_WAIT_POLICY"] == "PASSIVE"
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
+    _openmp_for(["generate", "music"])
+    assert os.environ["OMP_WAIT_POLICY"] == "ACTIVE"

@@ -212,6 +212,47 @@ def test_inpainting_bad_mask_is_an_error() -> None:
         SAMPLERS.build("inpainting", {"preset": "outpaint"})
 
 
+def test_soft_inpainting_with_weights_zero_and_one_is_hard_inpainting() -> None:
+    sampler = SAMPLERS.build("inpainting", {"num_inference_steps": 4})
+    known, cond = torch.randn(2, 10, 4), torch.randn(2, 10, 3)
+    hard = torch.zeros(2, 10, dtype=torch.bool)
+    hard[:, :3] = True
+    hard[1, -2:] = True
+
+    def run(mask: Tensor) -> Tensor:
+        gens = [torch.Generator().manual_seed(s) for s in (1, 2)]
+        return sampler.sample(tiny_dit(), known, mask, cond, generator=gens)
+
+    assert torch.equal(run(hard.float()), run(hard))
+    soft = hard.float()
+    soft[:, 2] = 0.5  # may move; weight-1 frames are kept exactly
+    out = run(soft)
+    assert torch.equal(out[:, :2], known[:, :2]) and torch.equal(out[1, -2:], known[1, -2:])
+    assert not torch.equal(out[:, 2], known[:, 2])
+    with pytest.raises(ValueError, match="known_mask"):
+        sampler.sample(tiny_dit(), known, soft * 2.0, cond)
+
+
+def test_separate_null_branch_gives_the_batched_cfg_result() -> None:
+    """The unconditional CFG branch run as its own forward without the condition (protocol rule 2) is
+    the batched forward's result, with padded items too."""
+    from momu.samplers.branches import SeparateNullBranch
+
+    model = tiny_dit()
+    x, t, cond = torch.randn(3, 9, 4), torch.tensor([5, 500, 900]), torch.randn(3, 9, 3)
+    mask = lengths_to_mask([9, 6, 4], 9)
+    for x_mask in (None, mask):
+        batched = guided_eps(model, x, t, cond, 3.0, x_mask=x_mask, cond_mask=x_mask)
+        counting = CountingBackbone(model)
+        split = guided_eps(SeparateNullBranch(counting), x, t, cond, 3.0, x_mask=x_mask, cond_mask=x_mask)
+        assert counting.calls == [3, 3]
+        torch.testing.assert_close(split, batched, atol=1e-5, rtol=1e-5)
+    wrapped = SeparateNullBranch(model)
+    assert (wrapped.in_channels, wrapped.cond_channels, wrapped.max_length) == (4, 3, 128)
+    all_dropped = torch.ones(3, dtype=torch.bool)
+    torch.testing.assert_close(wrapped(x, t, cond, drop_cond=all_dropped), model(x, t, None))
+
+
 # ---------------------------------------------------------------------------------- loss
 class OracleBackbone(torch.nn.Module):
     """Knows that x0 = 0, so ε = x_t / √(1−ᾱ_t) exactly."""

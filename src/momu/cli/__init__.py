@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import sys
 from collections.abc import Sequence
 
 from momu.config import ConfigError
@@ -46,8 +48,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _openmp_for(argv: Sequence[str]) -> None:
+    """``momu generate``: OpenMP threads that wait for each other sleep instead of spinning
+    (``OMP_WAIT_POLICY=PASSIVE`` unless the environment sets it; read when torch loads OpenMP, so
+    before any import of torch). Generation runs thousands of small parallel operations; on a machine
+    whose cores are shared with other jobs a spinning thread that waits for a descheduled one burns its
+    time slice: 4-5x slower generation of a 3-minute song with 2 threads at load average 3-4
+    (benchmarks/results/bench_long_song_180s.json)."""
+    command = next((a for a in argv if not a.startswith("-")), None)
+    if command == "generate":
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``momu`` command; returns the exit status (2 for usage and config errors, docs/errors.md)."""
+    _openmp_for(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     # Subcommands that take free ``key=value`` overrides after their options (``momu train``) set
     # ``extra_overrides``; everything else is parsed strictly.

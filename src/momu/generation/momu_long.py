@@ -1,8 +1,9 @@
 """Songs and dances of any length with a trained :class:`~momu.methods.momu.MoMuModel`.
 
 :func:`music_to_motion_long` and :func:`motion_to_music_long` encode the whole input once, generate the
-other modality's latent window by window (:func:`momu.generation.stitching.stitched_sample`: each
-window inpainted on the end of the previous one) and decode the stitched latent once. The window is the
+other modality's latent window by window (:func:`momu.generation.stitching.stitched_sample`: windows
+inpainted on the frames their neighbours generated, in two batched passes by default) and decode the
+stitched latent once. The window is the
 model's training window (``MoMuConfig.window_seconds``) unless given, capped by the denoiser's
 ``max_length``; the overlap is a quarter of it.
 
@@ -17,12 +18,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from momu.generation.stitching import Progress, WindowPlan, plan_windows, stitched_sample
+from momu.generation.stitching import Progress, stitched_sample
+from momu.generation.windows import WindowPlan, plan_windows
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from momu.methods.momu import MoMuModel
 
-__all__ = ["window_frames", "plan_for_seconds", "music_to_motion_long", "motion_to_music_long"]
+__all__ = [
+    "window_frames",
+    "usable_schedule",
+    "plan_for_seconds",
+    "music_to_motion_long",
+    "motion_to_music_long",
+]
 
 OVERLAP_FRACTION = 0.25
 """Overlap of consecutive windows as a fraction of the window."""
@@ -53,10 +61,19 @@ def window_frames(
     return window, overlap
 
 
-def plan_for_seconds(model: MoMuModel, seconds: float, direction: str = "motion") -> WindowPlan:
+def usable_schedule(window: int, overlap: int, schedule: str) -> str:
+    """``schedule``, except ``"sequential"`` where a two-pass bridge would have no frame of its own
+    (``window <= 2 * overlap``: only models with windows of a few frames)."""
+    return "sequential" if schedule == "two_pass" and window <= 2 * overlap else schedule
+
+
+def plan_for_seconds(
+    model: MoMuModel, seconds: float, direction: str = "motion", schedule: str = "two_pass"
+) -> WindowPlan:
     """The window plan (latent frames) of a ``seconds``-long input with the default windows."""
     window, overlap = window_frames(model, direction)
-    return plan_windows(model.rates.latent_frames(seconds), window, overlap)
+    schedule = usable_schedule(window, overlap, schedule)
+    return plan_windows(model.rates.latent_frames(seconds), window, overlap, schedule)
 
 
 def _generate(
@@ -68,6 +85,7 @@ def _generate(
     window_seconds: float | None,
     overlap_seconds: float | None,
     progress: Progress | None,
+    schedule: str,
 ) -> list[Any]:
     """Stitched latents of ``direction`` (``"motion"`` or ``"music"``) for per-item condition latents."""
     window, overlap = window_frames(model, direction, window_seconds, overlap_seconds)
@@ -81,6 +99,7 @@ def _generate(
         overlap=overlap,
         guidance_scale=guidance_scale,
         progress=progress,
+        schedule=usable_schedule(window, overlap, schedule),
     )
 
 
@@ -94,11 +113,12 @@ def music_to_motion_long(
     window_seconds: float | None = None,
     overlap_seconds: float | None = None,
     progress: Progress | None = None,
+    schedule: str = "two_pass",
 ) -> list[np.ndarray]:
     """Music → motion for songs of any length: one ``(T, J, D)`` motion at ``rates.motion_fps`` per song."""
     conds = [model.encode_music(a, sample_rate) for a in audios]
     latents = _generate(
-        model, "motion", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress
+        model, "motion", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress, schedule
     )
     return [model.decode_motion(z) for z in latents]
 
@@ -113,10 +133,11 @@ def motion_to_music_long(
     window_seconds: float | None = None,
     overlap_seconds: float | None = None,
     progress: Progress | None = None,
+    schedule: str = "two_pass",
 ) -> list[np.ndarray]:
     """Motion → music for dances of any length: one waveform at ``rates.sample_rate`` per motion."""
     conds = [model.encode_motion(m, fps) for m in motions]
     latents = _generate(
-        model, "music", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress
+        model, "music", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress, schedule
     )
     return [model.decode_music(z) for z in latents]

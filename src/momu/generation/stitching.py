@@ -2,23 +2,35 @@
 
 A MoMu denoiser is trained on windows of ``window_seconds`` (4 s at the cpu preset) and its DiT has a
 ``max_length``; a song is longer. The song's condition latent (the whole song encoded at once: the
-BiCoR-VAE encoders are convolutional) is cut into windows of ``W`` latent frames that overlap by ``O``:
+BiCoR-VAE encoders are convolutional) is cut into windows of ``W`` latent frames
+(:mod:`momu.generation.windows` places them):
 
-* window 0 is sampled with classifier-free guidance (MoMu Eq. 7) on its part of the condition;
-* window ``k`` starts ``W − O`` frames after window ``k − 1``; its first ``O`` frames are *known* — the
-  last ``O`` frames window ``k − 1`` generated — and it is sampled by inpainting (MoFusion §4.4: the
-  known frames are replaced by their forward-diffused values before every denoising step), with CFG on
-  the rest. So each window continues the previous one instead of starting afresh.
+* a window with no known frames is sampled with classifier-free guidance (MoMu Eq. 7) on its part of
+  the condition;
+* a window with known frames — the first ``O`` frames that the window before it generated, and in the
+  ``two_pass`` schedule also the last ``O`` frames that the window after it generated — is sampled by
+  inpainting (MoFusion §4.4: the known frames are replaced by their forward-diffused values before
+  every denoising step), with CFG on the rest. So each window continues its neighbours instead of
+  starting afresh.
+
+A bridge of the ``two_pass`` schedule must meet fixed frames at *both* ends; with hard replacement its
+last new frames jump onto the next anchor more often than a sequential window's first frames do
+(benchmarks/bench_long_song.py). So a bridge's known frames are a *soft* mask (:func:`ramp`: weight 1 at
+the bridge's outer edges down to ``1/O`` next to its new frames; :mod:`momu.samplers.inpainting`): the
+known frames nearest the new ones may move towards them, and the outer edge — where the anchor takes
+over — is kept exactly. The sequential schedule keeps every known frame exactly (hard mask).
+
+``two_pass`` (the default) samples all anchors of all items as batches of windows, then all bridges;
+``sequential`` samples window ``k`` of every item after window ``k − 1`` (items that have no window
+``k`` any more drop out). Each window's noise comes from its own seeded generator
+(:func:`momu.generation.windows.window_generator`; sequential: one generator per item for all its
+windows), so an item's result does not depend on the batch it is sampled in.
 
 **Latents, not poses.** MoMu generates in the BiCoR-VAE latent space, so the stitching happens there:
 known frames are latent frames, the stitched latent of the whole song is decoded once, and the
 (convolutional) decoder sees one continuous sequence — no window edge reaches the decoder. Inpainting
 poses would need a decode inside every denoising step and would still leave the decoder's edges at
 every window.
-
-Windows of several items (songs) run as one batch per window index (items that have no window ``k``
-any more drop out); each item's noise comes from its own seeded generator, so an item's result does
-not depend on the batch.
 
 :func:`seam_jumps` and :func:`velocity_jumps` measure what a seam would look like: the change of joint
 velocity between consecutive frames, at the window boundaries, against the same statistic of real data.
@@ -27,60 +39,38 @@ velocity between consecutive frames, at the window boundaries, against the same 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
+from momu.generation.windows import SCHEDULES, WindowPlan, plan_windows, window_generator
 from momu.samplers.base import lengths_to_mask
+from momu.samplers.branches import SeparateNullBranch
 from momu.samplers.inpainting import InpaintingConfig, InpaintingSampler
 
-__all__ = ["WindowPlan", "plan_windows", "stitched_sample", "velocity_jumps", "seam_jumps", "inpainting_like"]
+__all__ = [
+    "WindowPlan",
+    "plan_windows",
+    "stitched_sample",
+    "velocity_jumps",
+    "seam_jumps",
+    "inpainting_like",
+    "MAX_BATCH_FRAMES",
+]
 
 Progress = Callable[[int], None]
 """Called with the number of windows just finished (for a progress bar)."""
 
+MAX_BATCH_FRAMES = 2048
+"""Latent frames (windows × window length) sampled in one batch by the two-pass schedule: 33 windows
+of the cpu preset's 62 frames; bounds memory for long windows and large models."""
 
-@dataclass(frozen=True)
-class WindowPlan:
-    """Where the windows of one sequence lie (latent frames).
-
-    Attributes:
-        length: total frames ``L``.
-        starts: start frame of each window.
-        ends: end frame (exclusive) of each window.
-        overlap: frames each window after the first takes from its predecessor.
-    """
-
-    length: int
-    starts: tuple[int, ...]
-    ends: tuple[int, ...]
-    overlap: int
-
-    @property
-    def boundaries(self) -> tuple[int, ...]:
-        """First newly generated frame of every window after the first (where a seam could show)."""
-        return tuple(s + self.overlap for s in self.starts[1:])
-
-
-def plan_windows(length: int, window: int, overlap: int) -> WindowPlan:
-    """Windows of ``window`` frames overlapping by ``overlap`` covering ``length`` frames.
-
-    A sequence no longer than ``window`` is one window. The last window is shortened to end at
-    ``length`` (it always generates at least one new frame).
-    """
-    if window < 2 or not 0 < overlap < window:
-        raise ValueError(f"need window >= 2 and 0 < overlap < window, got window={window}, overlap={overlap}")
-    if length < 1:
-        raise ValueError(f"length must be >= 1, got {length}")
-    starts, ends = [0], [min(window, length)]
-    while ends[-1] < length:
-        start = ends[-1] - overlap
-        starts.append(start)
-        ends.append(min(start + window, length))
-    return WindowPlan(length, tuple(starts), tuple(ends), overlap)
+SPLIT_MIN_WINDOWS = 4
+"""Batches of at least this many windows run CFG's unconditional branch as its own forward
+(:class:`momu.samplers.branches.SeparateNullBranch`); smaller ones gain little from it, and a song of
+one window then is exactly one-window generation (``MoMuModel.music_to_motion``)."""
 
 
 def inpainting_like(sampler: object) -> InpaintingSampler:
@@ -96,6 +86,15 @@ def inpainting_like(sampler: object) -> InpaintingSampler:
         ),
         scheduler,
     )
+
+
+def ramp(frames: int, soft: bool) -> Tensor:
+    """Weights of a run of ``n = frames`` known frames that starts next to the unknown frames (a run
+    that ends there takes them reversed): ``1/n, 2/n, …, 1`` (soft: the frames nearest the unknown ones
+    may move most, the outermost is kept exactly), or all True (hard: every known frame kept)."""
+    if not soft:
+        return torch.ones(frames, dtype=torch.bool)
+    return torch.arange(1, frames + 1, dtype=torch.float32) / frames
 
 
 def _batch(items: Sequence[Tensor]) -> tuple[Tensor, Tensor | None]:
@@ -118,6 +117,9 @@ def stitched_sample(
     overlap: int,
     guidance_scale: float | None = None,
     progress: Progress | None = None,
+    schedule: str = "two_pass",
+    max_batch_frames: int = MAX_BATCH_FRAMES,
+    soft_edges: bool = True,
 ) -> list[Tensor]:
     """One ``(L_i, channels)`` sample per condition ``(L_i, C)``, window by window (module docstring).
 
@@ -128,55 +130,111 @@ def stitched_sample(
         seeds: per-item seeds (initial noise and step noise of every window).
         window, overlap: window length and overlap in frames (``window <= backbone.max_length``).
         guidance_scale: overrides the sampler's.
-        progress: called with 1 after each window index (all items' windows of that index).
+        progress: called with the number of windows (of all items) finished after each batch.
+        schedule: ``"two_pass"`` (batched anchors, then batched bridges; needs ``window > 2 * overlap``)
+            or ``"sequential"`` (:mod:`momu.generation.windows`).
+        max_batch_frames: two-pass only: at most this many latent frames (windows × ``window``) per
+            batch (at least one window).
+        soft_edges: two-pass only: a bridge's known frames are a soft mask (module docstring); False
+            keeps every known frame exactly, as the sequential schedule does.
     """
     if len(conds) != len(seeds):
         raise ValueError(f"seeds: {len(seeds)} seeds for {len(conds)} inputs")
+    if schedule not in SCHEDULES:
+        raise ValueError(f"schedule {schedule!r} not one of {SCHEDULES}")
     max_length = getattr(backbone, "max_length", None)
     if max_length is not None and window > int(max_length):
         raise ValueError(f"window {window} exceeds the backbone's max_length={max_length}")
-    plans = [plan_windows(int(c.shape[0]), window, overlap) for c in conds]
-    gens = [torch.Generator().manual_seed(int(s)) for s in seeds]
-    inpaint = inpainting_like(sampler)
+    plans = [plan_windows(int(c.shape[0]), window, overlap, schedule) for c in conds]
     outs = [torch.zeros(int(c.shape[0]), channels) for c in conds]
-    for k in range(max(len(p.starts) for p in plans)):
-        live = [i for i, p in enumerate(plans) if k < len(p.starts)]
-        spans = [(plans[i].starts[k], plans[i].ends[k]) for i in live]
-        cond, mask = _batch([conds[i][s:e].float() for i, (s, e) in zip(live, spans)])
-        noise, _ = _batch([torch.randn(e - s, channels, generator=gens[i]) for i, (s, e) in zip(live, spans)])
-        item_gens = [gens[i] for i in live]
-        if k == 0:
-            z = sampler.sample(  # type: ignore[attr-defined]
-                backbone,
+    job = _Job(sampler, backbone, conds, channels, guidance_scale, soft_edges and schedule == "two_pass")
+    if schedule == "sequential":
+        gens = [torch.Generator().manual_seed(int(s)) for s in seeds]
+        for k in range(max(len(p.starts) for p in plans)):
+            live = [i for i, p in enumerate(plans) if k < len(p.starts)]
+            job.run([(i, k) for i in live], plans, outs, [gens[i] for i in live])
+            if progress is not None:
+                progress(1)
+        return outs
+    # two-pass: windows are independent within a pass, so batch them (and, in large batches, drop the
+    # padded null-condition tokens of the unconditional CFG branch: the same result, less work)
+    per_batch = max(1, int(max_batch_frames) // window)
+    for p in range(2):
+        todo = [(i, k) for i, plan in enumerate(plans) if p < len(plan.passes()) for k in plan.passes()[p]]
+        for b in range(0, len(todo), per_batch):
+            chunk = todo[b : b + per_batch]
+            job.backbone = SeparateNullBranch(backbone) if len(chunk) >= SPLIT_MIN_WINDOWS else backbone
+            job.run(chunk, plans, outs, [window_generator(seeds[i], k) for i, k in chunk])
+            if progress is not None:
+                progress(len(chunk))
+    return outs
+
+
+class _Job:
+    """Samples a batch of windows ``(item, window index)`` and writes them into the items' outputs."""
+
+    def __init__(
+        self,
+        sampler: object,
+        backbone: Any,
+        conds: Sequence[Tensor],
+        channels: int,
+        scale: float | None,
+        soft: bool,
+    ) -> None:
+        self.sampler, self.backbone, self.conds = sampler, backbone, conds
+        self.channels, self.scale, self.soft = channels, scale, soft
+        self.inpaint = inpainting_like(sampler)
+        self.raw: dict[tuple[int, int], Tensor] = {}  # every window's own output, (item, window index)
+
+    def run(
+        self,
+        windows: Sequence[tuple[int, int]],
+        plans: Sequence[WindowPlan],
+        outs: list[Tensor],
+        gens: list[torch.Generator],
+    ) -> None:
+        spans = [(plans[i].starts[k], plans[i].ends[k]) for i, k in windows]
+        cond, mask = _batch([self.conds[i][s:e].float() for (i, _), (s, e) in zip(windows, spans)])
+        noise, _ = _batch([torch.randn(e - s, self.channels, generator=g) for (s, e), g in zip(spans, gens)])
+        known_frames = [plans[i].known(k) for i, k in windows]
+        if not any(h or t for h, t in known_frames):
+            z = self.sampler.sample(  # type: ignore[attr-defined]
+                self.backbone,
                 noise,
                 cond,
                 x_mask=mask,
                 cond_mask=mask,
-                guidance_scale=guidance_scale,
-                generator=item_gens,
+                guidance_scale=self.scale,
+                generator=gens,
             )
         else:
             known = torch.zeros_like(noise)
-            known_mask = torch.zeros(noise.shape[:2], dtype=torch.bool)
-            for b, (i, (s, _)) in enumerate(zip(live, spans)):
-                known[b, :overlap] = outs[i][s : s + overlap]
-                known_mask[b, :overlap] = True
-            z = inpaint.sample(
-                backbone,
+            soft = self.soft
+            known_mask = torch.zeros(noise.shape[:2], dtype=noise.dtype if soft else torch.bool)
+            for b, ((i, k), (s, e), (head, tail)) in enumerate(zip(windows, spans, known_frames)):
+                if head:  # the window before it generated these frames
+                    before = plans[i].starts[k - 1]
+                    known[b, :head] = self.raw[i, k - 1][s - before : s - before + head]
+                    known_mask[b, :head] = ramp(head, soft).flip(0)
+                if tail:  # and the window after it these
+                    after = plans[i].starts[k + 1]
+                    known[b, e - s - tail : e - s] = self.raw[i, k + 1][e - tail - after : e - after]
+                    known_mask[b, e - s - tail : e - s] = ramp(tail, soft)
+            z = self.inpaint.sample(
+                self.backbone,
                 known,
                 known_mask,
                 cond,
                 noise=noise,
                 x_mask=mask,
                 cond_mask=mask,
-                generator=item_gens,
-                guidance_scale=guidance_scale,
+                generator=gens,
+                guidance_scale=self.scale,
             )
-        for b, (i, (s, e)) in enumerate(zip(live, spans)):
-            outs[i][s:e] = z[b, : e - s].float().cpu()
-        if progress is not None:
-            progress(1)
-    return outs
+        for b, ((i, k), (s, e)) in enumerate(zip(windows, spans)):
+            self.raw[i, k] = z[b, : e - s].float().cpu()
+            outs[i][s:e] = self.raw[i, k]
 
 
 def velocity_jumps(motion: np.ndarray, fps: float = 1.0) -> np.ndarray:

@@ -231,10 +231,11 @@ def _ffmpeg_exe() -> str:
 def _blit_frames(
     fig: Figure, update: Callable[[int], list[Artist]], animated: list[Artist], frames: list[int]
 ) -> Iterator[np.ndarray]:
-    """``(H, W, 3)`` uint8 RGB images of ``fig`` after ``update(i)`` for each ``i`` in ``frames``.
+    """``(H, W, 4)`` uint8 RGBA images of ``fig`` after ``update(i)`` for each ``i`` in ``frames``.
 
     The static part of the figure (axes, ticks, waveform) is drawn once and restored for every frame;
-    only ``animated`` artists are redrawn (matplotlib blitting: ~10x faster than a full redraw).
+    only ``animated`` artists are redrawn (matplotlib blitting: ~10x faster than a full redraw). Each
+    image is a view of the canvas, valid until the next one is requested (no copy per frame).
     """
     for artist in animated:
         artist.set_animated(True)
@@ -245,16 +246,21 @@ def _blit_frames(
         canvas.restore_region(background)
         for artist in update(i):
             fig.draw_artist(artist)
-        yield np.asarray(canvas.buffer_rgba())[..., :3].copy()
+        yield np.asarray(canvas.buffer_rgba())
 
 
 def _write_gif(path: Path, images: Iterator[np.ndarray], out_fps: float) -> int:
-    """Write RGB frames as a looping GIF shown at ``out_fps``; returns the number of frames."""
+    """Write RGBA frames (alpha ignored) as a looping GIF at ``out_fps``; returns the number of frames."""
     from PIL import Image
 
     # One adaptive palette per frame (what Pillow does for RGB frames), converted as we go to keep
     # one byte per pixel in memory.
-    pal = [Image.fromarray(im).quantize(colors=255, method=Image.Quantize.FASTOCTREE) for im in images]
+    pal = [
+        Image.fromarray(np.ascontiguousarray(im[..., :3])).quantize(
+            colors=255, method=Image.Quantize.FASTOCTREE
+        )
+        for im in images
+    ]
     if not pal:
         raise ValueError("motion: no frames to animate")
     delay_ms = int(round(1000.0 / out_fps))
@@ -271,7 +277,8 @@ def _write_mp4(
     sample_rate: int | None,
     num_frames: int,
 ) -> int:
-    """Pipe RGB frames to ffmpeg (H.264, yuv420p, even frame size), with ``audio`` as an AAC track.
+    """Pipe RGBA frames to ffmpeg (H.264 ``veryfast``, yuv420p, even frame size), with ``audio`` as an
+    AAC track.
 
     The sound is padded with silence or cut to the video's ``num_frames / out_fps`` seconds.
     Returns the number of frames.
@@ -282,7 +289,7 @@ def _write_mp4(
     if first is None:
         raise ValueError("motion: no frames to animate")
     h, w = first.shape[:2]
-    cmd = [ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
+    cmd = [ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgba"]
     cmd += ["-s", f"{w}x{h}", "-r", f"{out_fps:g}", "-i", "pipe:0"]
     with tempfile.TemporaryDirectory(prefix="momu-render-") as scratch:
         if audio is not None and sample_rate:
@@ -294,7 +301,8 @@ def _write_mp4(
             track[: min(samples, audio.size)] = audio[:samples]
             sf.write(str(wav), track, int(sample_rate), subtype="FLOAT")
             cmd += ["-i", str(wav)]
-        cmd += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p"]
+        cmd += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-preset", "veryfast"]
+        cmd += ["-pix_fmt", "yuv420p"]
         if audio is not None:
             cmd += ["-c:a", "aac", "-shortest"]
         cmd += ["-f", "mp4", str(path)]
@@ -305,7 +313,7 @@ def _write_mp4(
             assert proc.stdin is not None
             try:
                 for image in _chain(first, images):
-                    proc.stdin.write(np.ascontiguousarray(image).tobytes())
+                    proc.stdin.write(np.ascontiguousarray(image).data)
                     count += 1
             except BrokenPipeError:
                 pass  # ffmpeg exited early; its log says why

@@ -9,6 +9,12 @@ sample q(z_t | z_0^known) (scheduler ``add_noise``); after the last step they ar
 values exactly. The unknown frames are denoised with classifier-free guidance (MoMu Eq. 7) when a
 condition is given. Presets: seed-conditioned forecasting (the first S frames known) and
 in-betweening (keyframes known), see :func:`forecast_mask` and :func:`inbetween_mask`.
+
+A *soft* mask (float weights ``w`` in [0, 1] instead of booleans; not in MoFusion) blends instead of
+replacing: ``z_t ← w·q(z_t | z_0^known) + (1 − w)·z_t`` before every call and ``w·known + (1 − w)·z_0``
+at the end, so frames with ``w`` below 1 may move towards what the model generates next to them (in the
+spirit of the soft-masked transitions of DoubleTake, PriorMDM, Shafir et al. 2023). Weights 0 and 1 give
+exactly the hard mask's result.
 """
 
 from __future__ import annotations
@@ -117,14 +123,15 @@ class InpaintingSampler:
         Args:
             backbone: a denoiser following the backbone protocol (in eval mode).
             known: ``(B, T, C)`` values of the known frames (other frames are ignored).
-            known_mask: ``(B, T)`` or ``(B, T, C)`` bool, True = known; ``None`` = the preset.
+            known_mask: ``(B, T)`` or ``(B, T, C)`` bool, True = known; or float weights in [0, 1]
+                (a soft mask, module docstring); ``None`` = the preset.
             cond: optional ``(B, Tc, Cc)`` condition (e.g. music), guided with Eq. 7.
             noise: initial noise (default: drawn from ``generator`` with ``known``'s shape).
             x_mask, cond_mask: valid-frame masks for variable-length batches.
             generator: one generator, or one per item (an item's noise then depends on its own only).
 
         Returns:
-            ``(B, T, C)``; exactly ``known`` on the known frames.
+            ``(B, T, C)``; exactly ``known`` on the known frames (soft mask: where the weight is 1).
         """
         device, dtype = module_device(backbone)
         known = known.to(device=device, dtype=dtype)
@@ -133,8 +140,11 @@ class InpaintingSampler:
         if known_mask is None:
             known_mask = self.preset_mask(known.shape[0], known.shape[1])
         known_mask = known_mask.to(device)
-        if known_mask.dtype != torch.bool:
-            raise ValueError(f"known_mask: expected a bool tensor, got {known_mask.dtype}")
+        soft = torch.is_floating_point(known_mask)
+        if not soft and known_mask.dtype != torch.bool:
+            raise ValueError(f"known_mask: expected a bool or float tensor, got {known_mask.dtype}")
+        if soft and not bool(((known_mask >= 0) & (known_mask <= 1)).all()):
+            raise ValueError("known_mask: soft weights must lie in [0, 1]")
         if known_mask.ndim == 2:
             known_mask = known_mask[..., None]
         if known_mask.ndim != 3 or known_mask.shape[:2] != known.shape[:2]:
@@ -142,6 +152,17 @@ class InpaintingSampler:
                 f"known_mask: shape {tuple(known_mask.shape)} does not match known {tuple(known.shape)}"
             )
         mask = known_mask.expand_as(known)
+        if soft:
+            weight = mask.to(dtype)
+
+            def keep_known(value: Tensor, x: Tensor) -> Tensor:
+                return weight * value + (1.0 - weight) * x
+
+        else:
+
+            def keep_known(value: Tensor, x: Tensor) -> Tensor:
+                return torch.where(mask, value, x)
+
         x_T = make_noise(noise if noise is not None else known.shape, generator, device, dtype)
         if x_T.shape != known.shape:
             raise ValueError(f"noise: shape {tuple(x_T.shape)} differs from known {tuple(known.shape)}")
@@ -150,7 +171,7 @@ class InpaintingSampler:
         def replace_known(x: Tensor, t_int: int) -> Tensor:
             eps = make_noise(known.shape, generator, device, dtype)
             t = torch.full((known.shape[0],), t_int, dtype=torch.long, device=device)
-            return torch.where(mask, self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
+            return keep_known(self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
 
         def eps_fn(x: Tensor, t: Tensor) -> Tensor:
             return guided_eps(backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask)
@@ -165,7 +186,7 @@ class InpaintingSampler:
             num_inference_steps=steps,
             before_step=replace_known,
         )
-        out = torch.where(mask, known, out)
+        out = keep_known(known, out)
         if x_mask is not None:
             out = out * x_mask[..., None].to(dtype)
         return out
