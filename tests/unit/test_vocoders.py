@@ -67,6 +67,41 @@ def test_griffin_lim_bad_input() -> None:
         VOCODERS.build("griffin_lim", {"n_iter": 0})
 
 
+def test_multiplicative_mel_inversion_solves_the_same_problem_better_than_its_start() -> None:
+    from momu.features.audio import mel_to_power
+
+    cfg = MoMuMelConfig()
+    mel = momu_mel(tone(seconds=0.5) + 0.3 * tone(1500.0, seconds=0.5), SR)
+    power = mel_to_power(mel, cfg)
+    ref = VOCODERS.build("griffin_lim")
+    basis = ref._basis()
+
+    def residual(iters: int) -> float:
+        voc = VOCODERS.build("griffin_lim", {"mel_inversion": "multiplicative", "inversion_iters": iters})
+        mag = voc.magnitude(power)
+        assert mag.shape == (cfg.n_fft // 2 + 1, mel.shape[1]) and (mag >= 0).all()
+        return float(
+            np.linalg.norm(basis @ mag.astype(np.float64) ** cfg.power - power) / np.linalg.norm(power)
+        )
+
+    start, ten, fifty = residual(0), residual(10), residual(50)
+    assert fifty <= ten <= start  # Lee-Seung updates never increase the least-squares residual
+    librosa_residual = float(
+        np.linalg.norm(basis @ ref.magnitude(power).astype(np.float64) ** cfg.power - power)
+        / np.linalg.norm(power)
+    )
+    assert ten <= librosa_residual * 1.05
+    wav = VOCODERS.build("griffin_lim", {"mel_inversion": "multiplicative"})(mel)
+    assert momu_mel(wav, SR).shape == mel.shape and np.abs(wav).max() <= 1.0
+
+
+def test_griffin_lim_mel_inversion_options_are_checked() -> None:
+    with pytest.raises(ValueError, match="griffin_lim.mel_inversion"):
+        VOCODERS.build("griffin_lim", {"mel_inversion": "pinv"})
+    with pytest.raises(ValueError, match="griffin_lim.inversion_iters"):
+        VOCODERS.build("griffin_lim", {"inversion_iters": -1})
+
+
 # ------------------------------------------------------------------------------- bigvgan
 def test_bigvgan_default_builds_for_the_momu_mel() -> None:
     voc = VOCODERS.build("bigvgan")

@@ -30,6 +30,13 @@ class GriffinLimConfig:
         momentum: fast Griffin-Lim momentum (librosa default 0.99).
         random_phase: start from random phases (seeded by ``seed``) instead of zeros.
         seed: RNG seed for the random initial phase.
+        mel_inversion: how the mel power is mapped back to a linear-frequency magnitude, both
+            solving ``min ‖M x − p‖², x ≥ 0`` per frame (``M`` the mel filterbank): ``librosa``
+            (:func:`librosa.feature.inverse.mel_to_stft`, L-BFGS-B) or ``multiplicative``
+            (Lee–Seung multiplicative updates from the clipped pseudo-inverse, all frames at once:
+            on synth_dance music 8.7x less CPU than ``librosa`` with a lower residual and the
+            same onsets, ``benchmarks/bench_mel_inversion.py``).
+        inversion_iters: multiplicative updates (``mel_inversion: multiplicative``).
     """
 
     mel: MelConfig = field(default_factory=MoMuMelConfig)
@@ -37,6 +44,8 @@ class GriffinLimConfig:
     momentum: float = 0.99
     random_phase: bool = True
     seed: int = 0
+    mel_inversion: str = "librosa"
+    inversion_iters: int = 10
 
 
 def as_mel_batch(mel: Any, n_mels: int) -> tuple[np.ndarray, bool]:
@@ -71,6 +80,12 @@ class GriffinLimVocoder:
             raise ValueError(f"griffin_lim.n_iter must be positive, got {cfg.n_iter}")
         if not 0.0 <= cfg.momentum < 1.0 + 1e-9:
             raise ValueError(f"griffin_lim.momentum must be in [0, 1], got {cfg.momentum}")
+        if cfg.mel_inversion not in ("librosa", "multiplicative"):
+            raise ValueError(
+                f"griffin_lim.mel_inversion must be 'librosa' or 'multiplicative', got {cfg.mel_inversion!r}"
+            )
+        if cfg.inversion_iters < 0:
+            raise ValueError(f"griffin_lim.inversion_iters must be >= 0, got {cfg.inversion_iters}")
         cfg.mel.validate()
         self.cfg = cfg
         self.mel_cfg = cfg.mel
@@ -92,16 +107,7 @@ class GriffinLimVocoder:
         for i, logmel in enumerate(batch):
             rng = np.random.default_rng(self.cfg.seed + i)
             power = mel_to_power(logmel, m)
-            stft_mag = librosa.feature.inverse.mel_to_stft(
-                power,
-                sr=m.sample_rate,
-                n_fft=m.n_fft,
-                power=m.power,
-                fmin=m.fmin,
-                fmax=m.fmax,
-                htk=m.htk,
-                norm="slaney" if m.mel_norm == "slaney" else None,
-            )
+            stft_mag = self.magnitude(power)
             wav = librosa.griffinlim(
                 stft_mag,
                 n_iter=self.cfg.n_iter,
@@ -121,6 +127,45 @@ class GriffinLimVocoder:
         return stacked[0] if single else stacked
 
     __call__ = synthesize
+
+    def _basis(self) -> np.ndarray:
+        m = self.mel_cfg
+        return librosa.filters.mel(
+            sr=m.sample_rate,
+            n_fft=m.n_fft,
+            n_mels=m.n_mels,
+            fmin=m.fmin,
+            fmax=m.fmax,
+            htk=m.htk,
+            norm="slaney" if m.mel_norm == "slaney" else None,
+        )
+
+    def magnitude(self, power: np.ndarray) -> np.ndarray:
+        """``(n_mels, T)`` mel power -> ``(1 + n_fft // 2, T)`` STFT magnitude (non-negative least squares)."""
+        m = self.mel_cfg
+        if self.cfg.mel_inversion == "librosa":
+            return np.asarray(
+                librosa.feature.inverse.mel_to_stft(
+                    power,
+                    sr=m.sample_rate,
+                    n_fft=m.n_fft,
+                    power=m.power,
+                    fmin=m.fmin,
+                    fmax=m.fmax,
+                    htk=m.htk,
+                    norm="slaney" if m.mel_norm == "slaney" else None,
+                )
+            )
+        basis = self._basis().astype(np.float64)
+        target = np.asarray(power, dtype=np.float64)
+        # start: the pseudo-inverse clipped to a small positive floor (a zero never moves under
+        # multiplicative updates), then x <- x * Mᵀp / MᵀMx, which never increases ‖Mx − p‖²
+        floor = 1e-10 * max(float(target.max()), 1e-30)
+        x = np.maximum(np.linalg.pinv(basis) @ target, floor)
+        numerator, gram = basis.T @ target, basis.T @ basis
+        for _ in range(self.cfg.inversion_iters):
+            x *= numerator / np.maximum(gram @ x, 1e-30)
+        return np.power(x, 1.0 / m.power).astype(np.float32)
 
 
 @VOCODERS.register("griffin_lim", config=GriffinLimConfig)
