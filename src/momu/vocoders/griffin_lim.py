@@ -141,7 +141,7 @@ class GriffinLimVocoder:
         )
 
     def magnitude(self, power: np.ndarray) -> np.ndarray:
-        """``(n_mels, T)`` mel power -> ``(1 + n_fft // 2, T)`` STFT magnitude (non-negative least squares)."""
+        """``(n_mels, T)`` mel power -> ``(1 + n_fft // 2, T)`` STFT magnitude (non-negative lstsq)."""
         m = self.mel_cfg
         if self.cfg.mel_inversion == "librosa":
             return np.asarray(
