@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from momu.data.synth import SynthConfig, SynthDance
-from momu.features.audio import MoMuMelConfig, mel_to_power, momu_mel
+from momu.features.audio import MoMuMelConfig, mel_filterbank, mel_to_power, momu_mel
 from momu.metrics.loris_scores import onset_times
 from momu.vocoders.griffin_lim import GriffinLimConfig, GriffinLimVocoder
 
@@ -50,7 +50,7 @@ def main() -> None:
     for name, extra in settings.items():
         method = "librosa" if name == "librosa" else "multiplicative"
         voc = GriffinLimVocoder(GriffinLimConfig(mel=mel_cfg, n_iter=16, mel_inversion=method, **extra))
-        basis = voc._basis()
+        basis = mel_filterbank(mel_cfg)
         start = time.process_time()
         f1s, residuals = [], []
         for clip in clips:

@@ -14,7 +14,7 @@ from typing import Any
 import librosa
 import numpy as np
 
-from momu.features.audio import MelConfig, MoMuMelConfig, mel_to_power
+from momu.features.audio import MelConfig, MoMuMelConfig, mel_filterbank, mel_to_power
 from momu.registry import VOCODERS
 
 __all__ = ["GriffinLimConfig", "GriffinLimVocoder", "build_griffin_lim", "as_mel_batch"]
@@ -128,18 +128,6 @@ class GriffinLimVocoder:
 
     __call__ = synthesize
 
-    def _basis(self) -> np.ndarray:
-        m = self.mel_cfg
-        return librosa.filters.mel(
-            sr=m.sample_rate,
-            n_fft=m.n_fft,
-            n_mels=m.n_mels,
-            fmin=m.fmin,
-            fmax=m.fmax,
-            htk=m.htk,
-            norm="slaney" if m.mel_norm == "slaney" else None,
-        )
-
     def magnitude(self, power: np.ndarray) -> np.ndarray:
         """``(n_mels, T)`` mel power -> ``(1 + n_fft // 2, T)`` STFT magnitude (non-negative lstsq)."""
         m = self.mel_cfg
@@ -156,7 +144,7 @@ class GriffinLimVocoder:
                     norm="slaney" if m.mel_norm == "slaney" else None,
                 )
             )
-        basis = self._basis().astype(np.float64)
+        basis = mel_filterbank(m).astype(np.float64)
         target = np.asarray(power, dtype=np.float64)
         # start: the pseudo-inverse clipped to a small positive floor (a zero never moves under
         # multiplicative updates), then x <- x * Mᵀp / MᵀMx, which never increases ‖Mx − p‖²
