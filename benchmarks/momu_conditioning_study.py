@@ -124,7 +124,7 @@ F1 72.0; "other" = generated from another clip's condition):
   another state, so the denoisers differ): motion 46.3 (41.5) at guidance 3; guidance 5 for motion
   and 8 for music: motion 45.3 (42.2), music 39.2 (37.3); music guidance 3: 40.2 (37.6). θ_a at
   depth 6: music 45.4 (39.4), motion 43.1 (39.5). θ_m follows its music in every additive run
-  (+3.6 to +11.4) and in none with tokens; music F1 stays 3-5 points above shuffled real music;
+  (+3.1 to +11.4) and in none with tokens; music F1 stays 3-5 points above shuffled real music;
   retraining the same config moves a cell by up to 5 points, so one run decides nothing alone.
   Adopted: ``cond_tokens=false``, ``train_lengths=batch``, guidance 3 / 5, depth 4.
 """

@@ -109,7 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--work", type=Path, default=ROOT / "outputs" / "pretrain")
     p.add_argument("--skip-train", action="store_true", help="reuse the model already in --work")
     p.add_argument(
-        "--eval-seconds", type=float, default=56.0, help="seconds of each held-out song (the shortest dance: 56.4 s)"
+        "--eval-seconds",
+        type=float,
+        default=56.0,
+        help="seconds of each held-out song (the shortest dance: 56.4 s)",
     )
     args = p.parse_args(argv)
     from momu.training import find_model, train_method

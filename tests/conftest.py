@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,22 @@ import torch
 from hypothesis import HealthCheck, settings
 
 from tests.helpers.shared_data import shared_data_dir
+
+
+# One numba cache per pytest worker, set before anything imports numba and filled here, before any
+# test starts a run in other processes (which inherit the folder and only read it): librosa caches
+# its kernels on disk, and processes that fill one cold cache together can load a mismatched kernel
+# pair and crash (numba/numba#10128: on a fresh install the recipe runs of the integration tests
+# died with SIGSEGV, and a CI run lost a worker in tests/unit/test_eval_cli.py).
+def _fill_own_numba_cache() -> None:
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tempfile.gettempdir()) / "momu-test-numba" / worker))
+    from momu.metrics._audio import warm_librosa_kernels  # imports numba: after the variable is set
+
+    warm_librosa_kernels()
+
+
+_fill_own_numba_cache()
 
 os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")

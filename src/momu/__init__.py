@@ -4,7 +4,11 @@ Importing ``momu`` is cheap: the registries load their built-in parts on first u
 third-party plugins only when asked for by name.
 """
 
-from momu.registry import (
+from momu._numba_cache import isolate_rank_cache
+
+isolate_rank_cache()  # before anything imports numba: ranks must not fill one kernel cache together
+
+from momu.registry import (  # noqa: E402
     BACKBONES,
     DATASETS,
     ENCODERS,

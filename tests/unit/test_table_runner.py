@@ -187,3 +187,35 @@ def test_resume_reuses_finished_units_without_evaluating_them(tmp_path: Path) ->
     assert calls == []  # the finished unit came from its cell
     assert run_table(replace(SPEC, evaluate=counting), argv) == 0
     assert calls == [0]  # without --resume the unit is evaluated again (its stages are reused)
+
+
+def test_workers_start_after_librosa_kernels_are_cached(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Workers started together must find numba's cache filled (numba/numba#10128 crashes otherwise)."""
+    from momu.engine import table_units
+    from momu.engine.table_units import Unit, run_units_in_workers
+
+    events: list[str] = []
+    monkeypatch.setattr(table_units, "warm_librosa_kernels", lambda: events.append("warm"))
+    real_popen = table_units.subprocess.Popen
+
+    def popen(*args: object, **kwargs: object) -> object:
+        events.append("worker")
+        return real_popen(*args, **kwargs)  # type: ignore[call-overload]
+
+    monkeypatch.setattr(table_units.subprocess, "Popen", popen)
+    script = tmp_path / "unit.py"
+    script.write_text("import sys\nsys.exit(0)\n")
+    units = [Unit("#1", 0), Unit("#1", 1)]
+    failed = run_units_in_workers(str(script), [], units, jobs=2, threads=1, logs=tmp_path / "logs", name="t")
+    assert failed == []
+    assert events == ["warm", "worker", "worker"]
+
+
+def test_warming_fills_numba_cache_with_the_beat_kernels() -> None:
+    """tests/conftest.py warms this worker's own cache folder: beat_track's kernels are in it."""
+    import os
+
+    cached = [p.name for p in Path(os.environ["NUMBA_CACHE_DIR"]).rglob("*.nbi")]
+    assert any("beat" in name for name in cached), cached

@@ -37,6 +37,7 @@ from momu.engine.context import RunContext
 from momu.engine.scores import Scores, as_scores
 from momu.engine.trainer import without_later_defaults
 from momu.io import write_json
+from momu.metrics._audio import warm_librosa_kernels
 
 __all__ = [
     "Unit",
@@ -164,6 +165,7 @@ def run_units_in_workers(
     done, elapsed, ETA) is logged as units finish.
     """
     logs.mkdir(parents=True, exist_ok=True)
+    warm_librosa_kernels()  # workers started together must not fill numba's cache together
     base = [sys.executable, script, *_worker_argv(argv), "--threads", str(threads)]
     pending = list(units)
     running: list[tuple[Unit, subprocess.Popen[bytes], Any]] = []

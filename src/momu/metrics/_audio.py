@@ -15,7 +15,7 @@ import soundfile as sf
 
 from momu.metrics._checks import as_waveform
 
-__all__ = ["prepare_audio", "read_audio"]
+__all__ = ["prepare_audio", "read_audio", "warm_librosa_kernels"]
 
 
 def prepare_audio(audio: np.ndarray, sr: int, target_sr: int, name: str = "audio") -> np.ndarray:
@@ -44,3 +44,20 @@ def read_audio(path: str | Path) -> tuple[np.ndarray, int]:
         raise ValueError(f"{path}: the audio file holds no samples")
     mono = data.mean(axis=1, dtype=np.float32) if data.shape[1] > 1 else data[:, 0]
     return np.ascontiguousarray(mono), int(sr)
+
+
+def warm_librosa_kernels() -> None:
+    """Compile (or load from numba's cache) the librosa kernels the metrics use, in this process.
+
+    librosa caches its numba kernels on disk (``cache=True``), and numba writes a ``@guvectorize``
+    kernel as two files with no lock between them: processes that fill a cold cache at the same time
+    can load a mismatched pair and die with a segmentation fault (numba/numba#10128, seen as
+    librosa/librosa#1998 in ``beat_track``). Calling this once before starting worker processes fills
+    the cache from one process, so the workers only read it.
+    """
+    sr, hop = 22050, 512
+    y = np.random.default_rng(0).standard_normal(sr).astype(np.float32) * 0.1
+    envelope = librosa.onset.onset_strength(y=y, sr=sr, hop_length=hop)
+    librosa.onset.onset_detect(onset_envelope=envelope, sr=sr, hop_length=hop, backtrack=True)
+    librosa.beat.beat_track(onset_envelope=envelope, sr=sr, hop_length=hop)
+    librosa.util.peak_pick(envelope, pre_max=3, post_max=3, pre_avg=3, post_avg=3, delta=0.2, wait=1)

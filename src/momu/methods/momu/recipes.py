@@ -7,15 +7,15 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
 
 * ``smoke`` — every row end-to-end in seconds: a dozen 3 s clips, tiny VAEs and DiTs, a few
   optimiser steps, 4 sampling steps, 1-epoch extractors. The numbers mean nothing.
-* ``cpu`` — ``recipes/configs/momu.yaml`` as is: synth_dance (openpose14, 320 clips of 8 s, moves
-  starting sharply on the beat; 32 evaluation clips), 4 s windows with 2–4 s variable-length
-  diffusion items, small VAEs (latent 16, no attention, latent rate 15.6 Hz, replicate padding, no
-  GAN term; sum-reduced reconstruction with a velocity term for the motion VAE) and DiTs (θ_m
-  width 64, depth 2; θ_a width 128, depth 4), 120 music-VAE, 1200 motion-VAE and 4000 diffusion
-  steps (cosine learning-rate decay) per row; θ_a and θ_m with the frame-aligned condition shortcut
-  (``cond_add``, aligned positions); CFG sampling with DDPM clipped to ±4, guidance scale 5 for
-  motion→music and 3 for music→motion, and the joint rows sampled the same way; F1 columns in
-  0.25-s beat bins (one-second bins saturate on this music); 16-d FID/FAD features.
+* ``cpu`` — ``recipes/configs/momu.yaml`` as is: synth_dance (openpose14, 640 clips of 8 s, moves
+  starting sharply on the beat; 64 evaluation clips), 4 s windows with 2–4 s variable-length
+  diffusion items (one length per batch), small VAEs (latent 16, no attention, latent rate 15.6 Hz,
+  replicate padding, no GAN term; sum-reduced reconstruction with a velocity term for the motion
+  VAE) and DiTs (θ_m width 64, depth 2; θ_a width 128, depth 4), 120 music-VAE, 1200 motion-VAE and
+  4000 diffusion steps (cosine learning-rate decay) per row; θ_a and θ_m with the frame-aligned
+  condition shortcut (``cond_add``, aligned positions); CFG sampling with DDPM clipped to ±4,
+  guidance scale 5 for motion→music and 3 for music→motion, and the joint rows sampled the same way;
+  F1 columns in 0.25-s beat bins (one-second bins saturate on this music); 16-d FID/FAD features.
 * ``paper`` — its own complete file, ``recipes/configs/momu_paper.yaml``: every value of MoMu
   Tables 8–9, §4–5 and App. A–E pinned explicitly (nothing inherited from the cpu preset), the
   paper's silences marked as choices. ``docs/presets.md`` lists every departure of the cpu preset.
@@ -104,7 +104,7 @@ _UNET = "{base_channels: 16, channel_mults: [1, 2, 4], heads: 4, cross_attention
 _TABLE7_NOTES = (
     "F1 is in percent like the paper; FAD/FID use feature extractors trained on this run's data "
     "(the paper uses VGGish and a MotionBERT classifier on its datasets), so only their ordering is "
-    "comparable. At the cpu preset FID compares 32 clips' 16-d features and FAD 128 segments' 16-d "
+    "comparable. At the cpu preset FID compares 64 clips' 16-d features and FAD 256 segments' 16-d "
     "embeddings (N >= 2d: full-rank covariances).",
     "Cross rows (#1–#4, #7): music F1 = beat scores of music generated from clip i's motion vs clip i's "
     "music; "
