@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import soundfile as sf
 from tests.helpers.shared_data import shared_data_dir
 
@@ -36,6 +37,8 @@ def _result(recipe: str, out: Path, *extra: str) -> dict:
 
 
 def test_tables_and_fig12_share_their_models(tmp_path: Path) -> None:
+    if not DATA:  # synth_dance's styles are not ballroom genres: Tables I-II would have no columns
+        pytest.skip(f"Tables I-II's genre columns need the real Dance with Melody subset ({DWM})")
     t1 = _result("harmogan_table1", tmp_path)
     assert [r["id"] for r in t1["rows"]] == ["harmogan", "wo-harmo", *CALIBRATION]
     row = t1["rows"][0]
