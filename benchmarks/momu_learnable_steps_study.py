@@ -13,7 +13,15 @@ verdicts in ``<out>/momu_table3/results.md``.
     python benchmarks/momu_learnable_steps_study.py --preset cpu --data synth --out OUT \
         --tracker none --seeds 0 learnable_train.steps=4000
 
-Findings (2026-12-02, seed 0, 64 validation crops of 4 s, CPU): see the end of this docstring.
+Findings (2026-12-02; seed 0, 64 validation crops of 4 s; one thread, 33 min on a shared 2-core
+machine; ``learnable_train.steps=4000``, every other value the cpu preset's): **longer training does
+not help**. Right − other motion: BCS −0.60 [−1.61, +0.21], BHS +0.10 [−0.96, +1.09], F1 −0.16
+[−1.15, +0.74], onset F1 +0.38 [−0.63, +1.41], so the model still ignores its motion. Against shuffled
+real music: BHS −13.2 [−21.7, −5.1], F1 −8.5 [−16.1, −1.2], onset F1 −4.9 [−9.3, −0.4], below chance.
+The committed 1 200-step Table 3 gives the same picture on test (F1 −0.47 [−1.08, +0.09]). Next
+suspects, not yet measured: the stage trains on 512 fixed windows of pre-encoded music latents (Table
+7's θ_a sees every 1-s hop of 508 clips), and nothing checks that the encoder's output varies with
+its input after training.
 """
 
 from __future__ import annotations
