@@ -131,19 +131,9 @@ class GriffinLimVocoder:
     def magnitude(self, power: np.ndarray) -> np.ndarray:
         """``(n_mels, T)`` mel power -> ``(1 + n_fft // 2, T)`` STFT magnitude (non-negative lstsq)."""
         m = self.mel_cfg
-        if self.cfg.mel_inversion == "librosa":
-            return np.asarray(
-                librosa.feature.inverse.mel_to_stft(
-                    power,
-                    sr=m.sample_rate,
-                    n_fft=m.n_fft,
-                    power=m.power,
-                    fmin=m.fmin,
-                    fmax=m.fmax,
-                    htk=m.htk,
-                    norm="slaney" if m.mel_norm == "slaney" else None,
-                )
-            )
+        if self.cfg.mel_inversion == "librosa":  # librosa.feature.inverse.mel_to_stft on momu's filterbank
+            inverse = librosa.util.nnls(mel_filterbank(m).astype(power.dtype), power)
+            return np.power(inverse, 1.0 / m.power)
         basis = mel_filterbank(m).astype(np.float64)
         target = np.asarray(power, dtype=np.float64)
         # start: the pseudo-inverse clipped to a small positive floor (a zero never moves under
