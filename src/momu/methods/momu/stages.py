@@ -173,25 +173,28 @@ class DiffusionStage(nn.Module):
     def standardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
         return (z - getattr(self, f"{modality}_mean")) / getattr(self, f"{modality}_std")
 
-    def _variable_length(self) -> bool:
-        return self.min_frames is not None and self.training
+    def _train_min_frames(self) -> int | None:
+        """The shortest training length, or ``None`` (evaluation, or fixed-length training)."""
+        return self.min_frames if self.training else None
 
     def length_mask(self, batch: int, frames: int, device: torch.device) -> torch.Tensor | None:
         """Variable-length training (MoMu §5.3): item ``i`` keeps its first ``L_i`` latent frames,
         ``L_i`` uniform in ``[min_frames, frames]`` (drawn from the global RNG, which the engine
         seeds per process and checkpoints); ``None`` when training at the window length only or
         when lengths are drawn per batch (:meth:`batch_length`)."""
-        if not self._variable_length() or self.per_batch or self.min_frames >= frames:  # type: ignore[operator]
+        shortest = self._train_min_frames()
+        if shortest is None or self.per_batch or shortest >= frames:
             return None
-        lengths = torch.randint(self.min_frames, frames + 1, (batch,))  # type: ignore[arg-type]
+        lengths = torch.randint(shortest, frames + 1, (batch,))
         return (torch.arange(frames)[None, :] < lengths[:, None]).to(device)
 
     def batch_length(self, frames: int) -> int:
         """Per-batch variable length: one ``L`` uniform in ``[min_frames, frames]`` for the whole
         batch (the same distribution per item as :meth:`length_mask`, without padding)."""
-        if not self._variable_length() or not self.per_batch or self.min_frames >= frames:  # type: ignore[operator]
+        shortest = self._train_min_frames()
+        if shortest is None or not self.per_batch or shortest >= frames:
             return frames
-        return int(torch.randint(self.min_frames, frames + 1, ()))  # type: ignore[arg-type]
+        return int(torch.randint(shortest, frames + 1, ()))
 
     def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
         """``(L_a + L_m, logs)``; the logs are detached tensors (read back only at logging steps)."""
