@@ -11,8 +11,9 @@ shuffled calibration and over another clip's condition, with CPU seconds per sam
 
     python benchmarks/momu_sampler_steps_study.py --out outputs/reproduce --steps 1000 250 100
 
-``--out`` is a table output folder: the stages land in ``<out>/momu_table7/parts`` under the same
-keys a ``recipes/momu_table7.py`` run uses, so a later table run reuses them.
+``--out`` is a table output folder: the stages land in the tables' shared stage folder
+(``<out>/momu_shared/parts``) under the same keys a ``recipes/momu_table7.py`` run uses, so either
+reuses the other's.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from momu.engine.accelerate_setup import RunConfig, finish_accelerator, make_acc
 from momu.engine.context import RunContext
 from momu.engine.scores import ROW
 from momu.engine.statistics import paired_bootstrap, reduce_components
-from momu.engine.table import parse_table_args, resolve_row_configs
+from momu.engine.table import parse_table_args, resolve_row_configs, shared_parts_root
 from momu.methods.momu.data import eval_crops
 from momu.methods.momu.evaluate import fit_momu
 from momu.methods.momu.generation import OTHER, generate_motion, generate_music
@@ -61,9 +62,10 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     torch.set_num_threads(1)
-    out = args.out / "momu_table7"
+    spec = table7_spec()
+    out = args.out / spec.name
     accelerator = make_accelerator(RunConfig(tracker="none", seed=args.seed), out, "study", {})
-    ctx = RunContext(accelerator=accelerator, out_dir=out)
+    ctx = RunContext(accelerator=accelerator, out_dir=out, parts_root=shared_parts_root(spec, args.out))
     report: dict[str, object] = {"seed": args.seed, "steps": {}}
     components: dict[int, dict[str, dict[str, np.ndarray]]] = {}
     for steps in args.steps:

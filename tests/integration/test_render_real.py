@@ -9,13 +9,14 @@ import pytest
 
 pytest.importorskip("matplotlib")
 from PIL import Image  # noqa: E402
+from tests.helpers.shared_data import shared_data_dir  # noqa: E402
 
 from momu.features.audio import onset_times  # noqa: E402
 from momu.metrics.kinematic_beats import kinematic_beat_frames  # noqa: E402
 from momu.registry import DATASETS  # noqa: E402
 from momu.render import clip_animation, clip_beat_figure  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "dance_with_melody"
+DATA = shared_data_dir() / "dance_with_melody"
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason=f"{DATA} not available")
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -187,3 +188,31 @@ def test_learnable_motion_velocity_input_sees_displacements_and_ignores_padding(
         mask = torch.zeros(1, 10, dtype=torch.bool)
         mask[:, :6] = True
         torch.testing.assert_close(enc(padded, mask)[:, :6], ref, atol=1e-5, rtol=1e-5)
+
+
+def test_learnable_motion_standardizes_its_inputs_with_training_statistics(tmp_path: Path) -> None:
+    """``set_statistics`` makes each joint feature (position and displacement) zero-mean, unit-std on
+    the training motion: a skeleton's fixed joint offsets no longer dwarf its movement (issue 12)."""
+    cfg = LearnableMotionConfig(
+        num_joints=5, dim_in=2, dim_feat=8, dim_rep=4, depth=1, num_heads=2, out_channels=3, velocity=True
+    )
+    enc = LearnableMotionEncoder(cfg).eval()
+    offsets = torch.arange(10.0).reshape(1, 1, 5, 2) * 3.0  # fixed joint layout
+    train = offsets + 0.05 * torch.randn(16, 12, 5, 2)  # small movement around it
+    before = enc(train)
+    enc.set_statistics(train)
+    assert enc.input_mean.shape == enc.input_std.shape == (5, 4)
+    z = (enc.features(train) - enc.input_mean) / enc.input_std
+    torch.testing.assert_close(z.mean(dim=(0, 1)), torch.zeros(5, 4), atol=1e-3, rtol=0)
+    torch.testing.assert_close(z.std(dim=(0, 1)), torch.ones(5, 4), atol=1e-3, rtol=0)
+    assert not torch.allclose(enc(train), before)
+    # the statistics are buffers: they travel with the weights
+    path = tmp_path / "enc.safetensors"
+    save_file({k: v.contiguous() for k, v in enc.state_dict().items()}, str(path))
+    other = LearnableMotionEncoder(cfg).eval()
+    other.load_state_dict(load_file(str(path)), strict=True)
+    torch.testing.assert_close(other(train), enc(train))
+    # standardize=False keeps the identity transform
+    plain = LearnableMotionEncoder(dataclasses.replace(cfg, standardize=False))
+    plain.set_statistics(train)
+    assert bool((plain.input_mean == 0).all()) and bool((plain.input_std == 1).all())

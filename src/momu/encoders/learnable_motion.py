@@ -50,6 +50,15 @@ class LearnableMotionConfig:
             paper: MoMu's motion→music signal is where movements start and stop — its kinematic
             amplitude, Eq. 1–2, is built from first differences — and a shallow encoder trained
             from scratch finds it more easily given the differences than from positions alone).
+        standardize: standardise every input feature (each joint's coordinates and, with
+            ``velocity``, their differences) with the per-feature mean and standard deviation of the
+            training motion (:meth:`LearnableMotionEncoder.set_statistics`; saved with the weights).
+            Not in the paper, which does not say how the encoder's input is scaled. Without it a
+            globally normalised skeleton's fixed joint offsets and the DSTformer's unit-amplitude
+            sinusoidal positions dwarf the movement (frame-to-frame differences of std ≈ 0.08), and
+            the trained encoder's output varies over time but hardly across clips (issue 12, item 7:
+            std across clips 0.016 against 0.196 over time, and the denoiser's loss was the same
+            with another clip's motion).
     """
 
     num_joints: int = 14
@@ -63,6 +72,7 @@ class LearnableMotionConfig:
     out_channels: int = 20
     downsample: int = 1
     velocity: bool = False
+    standardize: bool = True
 
     def __post_init__(self) -> None:
         if self.out_channels < 1:
@@ -70,11 +80,16 @@ class LearnableMotionConfig:
         if self.downsample < 1:
             raise ValueError(f"LearnableMotionConfig.downsample must be >= 1, got {self.downsample}")
 
+    @property
+    def input_channels(self) -> int:
+        """Features per joint the DSTformer sees: ``dim_in``, doubled with ``velocity``."""
+        return self.dim_in * (2 if self.velocity else 1)
+
     def dstformer(self) -> DSTformerConfig:
         """The :class:`DSTformerConfig` these fields describe."""
         return DSTformerConfig(
             num_joints=self.num_joints,
-            dim_in=self.dim_in * (2 if self.velocity else 1),
+            dim_in=self.input_channels,
             dim_feat=self.dim_feat,
             dim_rep=self.dim_rep,
             depth=self.depth,
@@ -85,13 +100,40 @@ class LearnableMotionConfig:
 
 
 class LearnableMotionEncoder(nn.Module):
-    """DSTformer → per-frame projection → masked temporal average pooling (MoMu §5.1)."""
+    """Input features → DSTformer → per-frame projection → masked temporal average pooling (MoMu §5.1)."""
 
     def __init__(self, cfg: LearnableMotionConfig | None = None) -> None:
         super().__init__()
         self.cfg = cfg = cfg or LearnableMotionConfig()
         self.backbone = DSTformer(cfg.dstformer())
         self.proj = nn.Linear(cfg.num_joints * cfg.dim_rep, cfg.out_channels)
+        shape = (cfg.num_joints, cfg.input_channels)
+        self.input_mean: torch.Tensor
+        self.input_std: torch.Tensor
+        self.register_buffer("input_mean", torch.zeros(shape))
+        self.register_buffer("input_std", torch.ones(shape))
+
+    def features(self, motion: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+        """``(B, T, J, D)`` motion → the ``(B, T, J, input_channels)`` features, before standardising.
+
+        With ``velocity`` each joint's first difference (0 at the first frame) is appended; a
+        padded frame's difference never reaches a valid frame's input.
+        """
+        if not self.cfg.velocity:
+            return motion
+        step = torch.diff(motion, dim=1, prepend=motion[:, :1])
+        if mask is not None:
+            step = step * mask[:, :, None, None].to(step.dtype)
+        return torch.cat([motion, step], dim=-1)
+
+    @torch.no_grad()
+    def set_statistics(self, motion: torch.Tensor) -> None:
+        """Fit the input standardisation on the training motion ``(N, T, J, D)`` (if ``standardize``)."""
+        if not self.cfg.standardize:
+            return
+        flat = self.features(motion).reshape(-1, *self.input_mean.shape).double()
+        self.input_mean.copy_(flat.mean(0).float())
+        self.input_std.copy_(flat.std(0).clamp_min(1e-6).float())
 
     @property
     def out_channels(self) -> int:
@@ -116,12 +158,8 @@ class LearnableMotionEncoder(nn.Module):
 
         Padded frames (``mask`` False) never influence valid condition frames.
         """
-        if self.cfg.velocity:  # (B, T, J, 2D): positions and their first differences
-            step = torch.diff(motion, dim=1, prepend=motion[:, :1])
-            if mask is not None:  # a padded frame's difference never reaches a valid frame's input
-                step = step * mask[:, :, None, None].to(step.dtype)
-            motion = torch.cat([motion, step], dim=-1)
-        rep = self.backbone(motion, mask)  # (B, T, J, dim_rep)
+        x = (self.features(motion, mask) - self.input_mean) / self.input_std
+        rep = self.backbone(x, mask)  # (B, T, J, dim_rep)
         b, t, j, c = rep.shape
         h = self.proj(rep.reshape(b, t, j * c))  # (B, T, out_channels)
         k = self.cfg.downsample

@@ -306,6 +306,13 @@ def resolve_row_configs(spec: TableSpec, args: TableArgs) -> dict[str, DictConfi
     return configs
 
 
+def shared_parts_root(spec: TableSpec, out: Path) -> Path | None:
+    """Where the stages of ``spec``'s tables live under the output folder ``out`` (``None``: in the
+    table's own ``<out>/<table>/parts``). Studies that reuse a table run's stages build their
+    :class:`~momu.engine.context.RunContext` with it."""
+    return out / spec.shared_parts / "parts" if spec.shared_parts else None
+
+
 def _threads() -> int:
     return int(torch.get_num_threads())
 
@@ -415,8 +422,9 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
         mixed_precision=str(first.get("mixed_precision", "no")),
     )
     accelerator = make_accelerator(run_cfg, out, spec.name, {"preset": args.preset, "rows": args.rows})
-    shared = args.out / spec.shared_parts / "parts" if spec.shared_parts else None
-    ctx = RunContext(accelerator=accelerator, out_dir=out, resume=args.resume, parts_root=shared)
+    ctx = RunContext(
+        accelerator=accelerator, out_dir=out, resume=args.resume, parts_root=shared_parts_root(spec, args.out)
+    )
     if worker is not None:  # one unit of a --jobs run: evaluate it into its cell and stop
         try:
             evaluate_unit(spec.evaluate, ctx, configs[worker.row], worker, reuse=args.resume)

@@ -39,6 +39,7 @@ from momu.methods.harmogan.tables import (
     calibrate_fig12,
     calibrate_table1,
     calibrate_table2,
+    check_genre_columns,
     evaluate_fig9,
     evaluate_fig11,
     evaluate_fig12,
@@ -165,6 +166,7 @@ def _genre_spec(
         baselines=[PaperRow(n, _paper(prefix, paper[n])) for n in ("Lee et al. [28]", "Ren et al. [18]")],
         evaluate=evaluate,
         calibrate=calibrate,
+        check=check_genre_columns,
         data_key="dance",
         notes=(
             "Columns: without ballroom.root, the Dance with Melody stand-in — held-out 6-s windows of its "

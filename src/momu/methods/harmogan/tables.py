@@ -26,7 +26,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from omegaconf import DictConfig
 
-from momu.config import build_component
+from momu.config import ConfigError, build_component
 from momu.data.types import Clip
 from momu.engine.context import RunContext
 from momu.engine.scores import ROW, Scores
@@ -53,6 +53,7 @@ from momu.metrics.frechet import frechet_distance
 __all__ = [
     "DWM_GENRES",
     "genre_scores",
+    "check_genre_columns",
     "evaluate_table1",
     "evaluate_table2",
     "evaluate_fig12",
@@ -66,6 +67,29 @@ __all__ = [
 ]
 
 DWM_GENRES: tuple[str, ...] = ("cha-cha", "rumba", "tango", "waltz")
+
+
+def check_genre_columns(cfg: DictConfig) -> None:
+    """A Table I/II row must have clips of a genre column: fail before training when it has none.
+
+    A row scores the Ballroom clips (``ballroom.root`` set, model and static-pose rows) or the dance
+    data's held-out windows. The synthetic stand-in (no ``dance.root``) has no ballroom genre unless
+    ``dance.synth_dataset.styles`` names one, and its table would come out empty.
+
+    Raises:
+        ConfigError: the row's clips would fall in no genre column.
+    """
+    on_ballroom = (cfg.get("ballroom") or {}).get("root") and cfg.get("calibration_row") in (None, "static")
+    dance = cfg.get("dance") or {}
+    if on_ballroom or dance.get("root"):
+        return
+    styles = list((dance.get("synth_dataset") or {}).get("styles") or [])
+    if not set(styles) & set(DWM_GENRES):
+        raise ConfigError(
+            f"dance.synth_dataset.styles: the synthetic stand-in's styles ({', '.join(styles) or 'none'}) "
+            f"are no ballroom genre ({', '.join(DWM_GENRES)}), so Tables I-II would have no column; "
+            "pass --data DIR (a folder holding dance_with_melody/) or ballroom.root=DIR"
+        )
 
 
 def genre_scores(

@@ -10,8 +10,9 @@ generation on them with a learnable motion encoder, whose architecture is derive
    trains the full method reuses it).
 2. **Learnable motion→music diffusion** (:class:`LearnableMotionStage`): θ_a (the
    ``music_backbone``) on the standardised music latents ``z_a`` (Eq. 6), conditioned on
-   ``learnable_motion(m)`` — the registered DSTformer encoder — trained end to end with the
-   ε-prediction loss and condition dropout (Eq. 7's null embedding). The motion is aligned to
+   ``learnable_motion(m)`` — the registered DSTformer encoder, its inputs standardised with the
+   training motion's per-feature statistics — trained end to end with the ε-prediction loss and
+   condition dropout (Eq. 7's null embedding). The motion is aligned to
    ``k`` frames per latent frame (§3.2's even frame dropping; ``frames_per_latent``, default 1)
    and the encoder pools ``k`` frames into one, so its output has one condition frame per latent
    frame; its width is the latent width ``d``.
@@ -280,7 +281,7 @@ def fit_learnable_motion_to_music(
         "stage": "learnable_motion2music",
         "after": stage_key_hash(keys["music_vae"]),
         "data": keys["music_vae"]["data"],
-        "encoder": enc_node,
+        "encoder": {"name": enc_node["name"], **dataclasses.asdict(encoder.cfg)},  # every field, defaults too
         "music_backbone": music_node,
         "scheduler": to_container(c.scheduler),
         "diffusion_loss": to_container(c.diffusion_loss),
@@ -294,6 +295,7 @@ def fit_learnable_motion_to_music(
         stage.set_statistics(z_music)
         motion = torch.stack([it["motion"] for it in data.items])  # (N, n_z · rates' k, J, D)
         motion = align_frames(motion, z_music.shape[1] * frames_per_latent, dim=1)
+        stage.encoder.set_statistics(motion)  # the encoder's input standardisation (``standardize``)
         log.info("learnable motion→music: %d windows of %.2f s", len(data), data.window_seconds)
         return MotionLatentDataset(z_music, motion)
 

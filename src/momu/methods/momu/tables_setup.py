@@ -207,7 +207,8 @@ _EXTRA_PRESETS: dict[str, Callable[[Sequence[str]], list[str]]] = {
     # length that holds 50 s with concatenated positions (2 x 1562 + 1 = 3125)
     "paper": lambda subsets: [
         "learnable_encoder=learnable_motion",
-        "learnable_encoder={dim_feat: 256, dim_rep: 256, depth: 5, num_heads: 8, mlp_ratio: 4.0}",
+        "learnable_encoder={dim_feat: 256, dim_rep: 256, depth: 5, num_heads: 8, mlp_ratio: 4.0,"
+        " velocity: false, standardize: true}",
         "learnable_train={steps: 400000, batch_size: 16, lr: 1.6e-5, warmup_steps: 10000,"
         " lr_schedule: constant, weight_decay: 0.0}",
         "learnable_frames_per_latent=1",
