@@ -13,15 +13,32 @@ verdicts in ``<out>/momu_table3/results.md``.
     python benchmarks/momu_learnable_steps_study.py --preset cpu --data synth --out OUT \
         --tracker none --seeds 0 learnable_train.steps=4000
 
-Findings (2026-12-02; seed 0, 64 validation crops of 4 s; one thread, 33 min on a shared 2-core
-machine; ``learnable_train.steps=4000``, every other value the cpu preset's): **longer training does
-not help**. Right − other motion: BCS −0.60 [−1.61, +0.21], BHS +0.10 [−0.96, +1.09], F1 −0.16
-[−1.15, +0.74], onset F1 +0.38 [−0.63, +1.41], so the model still ignores its motion. Against shuffled
-real music: BHS −13.2 [−21.7, −5.1], F1 −8.5 [−16.1, −1.2], onset F1 −4.9 [−9.3, −0.4], below chance.
-The committed 1 200-step Table 3 gives the same picture on test (F1 −0.47 [−1.08, +0.09]). Next
-suspects, not yet measured: the stage trains on 512 fixed windows of pre-encoded music latents (Table
-7's θ_a sees every 1-s hop of 508 clips), and nothing checks that the encoder's output varies with
-its input after training.
+Findings (2026-12-02; seed 0, 64 validation crops of 4 s; right − other = music from the clip's own
+motion minus music from another clip's, scored against the clip's music; 95 % clip-bootstrap
+intervals):
+
+1. 1 200 steps (the earlier cpu preset), raw inputs: the model ignores its motion (the committed
+   Table 3 on test: F1 −0.47 [−1.08, +0.09]).
+2. 4 000 steps, raw inputs: still ignores it. Right − other F1 −0.16 [−1.15, +0.74]; against shuffled
+   real music F1 −8.5 [−16.1, −1.2], below chance.
+3. Why (``benchmarks/momu_learnable_condition_spread.py``, setting 1, 32 validation crops): the
+   trained encoder's output varies over time within a clip (std 0.194) but hardly across clips (std
+   0.016), and θ_a's ε-prediction error is the same to four decimals with another crop's motion
+   (t = 400: 0.0393 and 0.0393). The motion is normalised with one mean and standard deviation per
+   coordinate, so each joint's fixed place in the skeleton carries most of the input's variance and
+   the movement little (frame-to-frame differences of std 0.08), while the DSTformer adds
+   unit-amplitude sinusoidal positions: the encoder's output follows the positions.
+4. 1 200 steps with every input feature standardised on the training motion
+   (``learnable_encoder.standardize=true``): the model still ignores its motion (F1 +0.39 [−0.96,
+   +1.70]).
+5. 4 000 steps with standardised inputs (``learnable_train.steps=4000``): **the model follows its
+   motion** — right − other BCS +8.22 [+3.07, +13.0], BHS +8.25 [+3.25, +12.9], F1 +8.27 [+3.46,
+   +12.9], onset F1 +13.9 [+10.1, +17.8]; it beats shuffled on BCS (+11.7 [+5.69, +18.0]), F1
+   (+7.88 [+1.50, +14.4]) and onset F1 (+11.5 [+6.63, +16.4]). Training ran at about 10 steps/s
+   on one thread; the run took 11 min beside another job on a 2-core machine.
+
+The cpu preset now uses setting 5 (``recipes/configs/momu_tables.yaml``); settings 1–4 are
+``learnable_train.steps=1200`` / ``learnable_encoder.standardize=false`` overrides of it.
 """
 
 from __future__ import annotations

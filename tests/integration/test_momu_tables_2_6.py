@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from safetensors.torch import load_file
 
 from momu.config import ConfigError
 from momu.engine.table import parse_table_args, resolve_row_configs, run_table
@@ -99,6 +100,12 @@ def test_length_tables_have_both_length_columns(smoke_runs: dict[str, dict[str, 
     stages = smoke_runs["momu_table3"]["provenance"]["stages"]
     assert any(s.startswith("learnable_motion2music-") for s in stages)
     assert not any(s.startswith("motion_vae-") for s in stages)
+    # the encoder's input standardisation was fitted on the training motion and saved with the weights
+    shared = smoke_runs["momu_table3"]["_dir"].parent / SHARED_DIR / "parts"
+    for stage in (s for s in stages if s.startswith("learnable_motion2music-")):
+        weights = load_file(str(shared / stage / "model.safetensors"))
+        assert not bool((weights["encoder.input_std"] == 1).all()), stage
+        assert not bool((weights["encoder.input_mean"] == 0).all()), stage
 
 
 def test_tables_5_and_6_reuse_the_shared_models(smoke_runs: dict[str, dict[str, Any]]) -> None:

@@ -57,7 +57,7 @@ class LearnableMotionConfig:
             globally normalised skeleton's fixed joint offsets and the DSTformer's unit-amplitude
             sinusoidal positions dwarf the movement (frame-to-frame differences of std ≈ 0.08), and
             the trained encoder's output varies over time but hardly across clips (issue 12, item 7:
-            std across clips 0.016 against 0.196 over time, and the denoiser's loss was the same
+            std across clips 0.016 against 0.194 over time, and the denoiser's loss was the same
             with another clip's motion).
     """
 

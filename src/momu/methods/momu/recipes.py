@@ -14,7 +14,7 @@ Presets (overrides over ``recipes/configs/momu.yaml``, whose values are the ``cp
   VAE) and DiTs (θ_m width 64, depth 2; θ_a width 128, depth 4), 120 music-VAE, 1200 motion-VAE and
   4000 diffusion steps (cosine learning-rate decay) per row; θ_a and θ_m with the frame-aligned
   condition shortcut (``cond_add``, aligned positions); CFG sampling with DDPM clipped to ±4,
-  guidance scale 5 for motion→music and 3 for music→motion, and the joint rows sampled the same way;
+  guidance scale 5 for motion→music and 8 for music→motion, and the joint rows sampled the same way;
   F1 columns in 0.25-s beat bins (one-second bins saturate on this music); 16-d FID/FAD features.
 * ``paper`` — its own complete file, ``recipes/configs/momu_paper.yaml``: every value of MoMu
   Tables 8–9, §4–5 and App. A–E pinned explicitly (nothing inherited from the cpu preset), the
