@@ -416,7 +416,7 @@ def test_table_rows_resolve_and_the_paper_preset_is_tables_8_9() -> None:
     assert cpu.method.encoder.motion.padding_mode == "replicate" and cpu.dataset.attack == 0.3
     assert cpu.method.train_diffusion.lr_schedule == "cosine"
     assert cpu.method.sampler.scheduler.name == "ddpm" and cpu.method.motion_sampler is None
-    # θ_a wider and deeper than θ_m, each with its own guidance scale (the paper preset: one sampler, Table 9 DiT)
+    # θ_a wider and deeper than θ_m, each with its own guidance scale (paper preset: one sampler, Table 9 DiT)
     assert (cpu.method.music_backbone.hidden, cpu.method.music_backbone.depth) == (128, 4)
     assert cpu.method.music_sampler.guidance_scale == 5.0 and cpu.method.sampler.guidance_scale == 8.0
     assert paper["#7"].method.music_sampler is None
