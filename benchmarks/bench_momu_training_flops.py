@@ -7,17 +7,24 @@ one training step (forward + backward, counted by ``torch.utils.flop_counter``) 
 step time, and prints their ratio. It also prints the per-stage profile of a finished table run
 when given its ``results.json`` (``provenance.timings``: wall and CPU seconds per category).
 
-    python benchmarks/bench_momu_training_flops.py [--results outputs/reproduce/momu_table7/results.json]
+With ``--bf16`` it also times every step under a CPU bf16 autocast (what ``mixed_precision: bf16``
+trains with), in rounds that alternate with the fp32 steps so a shared machine slows both alike, and
+prints the median bf16 / fp32 ratio of the step times with the bf16 matmul peak beside it.
+
+    python benchmarks/bench_momu_training_flops.py [--bf16] \\
+        [--results outputs/reproduce/momu_table7/results.json]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
-from perf_common import matmul_peak, step_flops_and_time  # benchmarks/perf_common.py
+from perf_common import matmul_peak, step_flops_and_time, time_train_steps  # benchmarks/perf_common.py
 
 from momu.config import build_component
 from momu.engine.table import parse_table_args, resolve_row_configs
@@ -29,6 +36,8 @@ from momu.methods.momu.stages import DiffusionStage
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--results", type=Path, default=None, help="a table's results.json (stage profile)")
+    parser.add_argument("--bf16", action="store_true", help="also time each step under a CPU bf16 autocast")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating fp32/bf16 rounds (with --bf16)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(0)
@@ -47,7 +56,9 @@ def main() -> None:
     ).train()
     batch = int(m.train_diffusion.batch_size)
     data = {"z_music": torch.randn(batch, frames, d), "z_motion": torch.randn(batch, frames, d)}
-    rows = [("diffusion (θ_a + θ_m)", *step_flops_and_time(stage, lambda: stage(data)[0]))]
+    steps: list[tuple[str, torch.nn.Module, Callable[[], torch.Tensor]]] = [
+        ("diffusion (θ_a + θ_m)", stage, lambda: stage(data)[0])
+    ]
     vae = build_component(m.encoder, "encoders").train()
     mel = torch.randn(int(m.train_music_vae.batch_size), 80, 250)  # 4 s of MoMu mel frames
     music_loss = build_component(m.vae_loss, "losses")
@@ -56,13 +67,20 @@ def main() -> None:
         out = vae.music_vae(mel)
         return music_loss(out.reconstruction, out.target, out.posterior)["loss"]
 
-    rows.append(("music VAE", *step_flops_and_time(vae.music_vae, music_step)))
+    steps.append(("music VAE", vae.music_vae, music_step))
+    rows = [(name, *step_flops_and_time(module, step)) for name, module, step in steps]
     for name, flops, seconds in rows:
         achieved = flops / seconds
         print(
             f"{name:24s} {flops / 1e9:7.2f} GFLOP/step  {seconds * 1e3:7.1f} ms/step  "
             f"{achieved / 1e9:6.1f} GFLOP/s  = {100 * achieved / peak:5.1f} % of the matmul peak"
         )
+    if args.bf16:
+        bf16_peak = matmul_peak(dtype=torch.bfloat16)
+        print(f"\nmatmul peak (bf16, 512², one thread): {bf16_peak / 1e9:.1f} GFLOP/s")
+        for name, module, step in steps:
+            ratio = bf16_ratio(module, step, args.rounds)
+            print(f"{name:24s} bf16 autocast step / fp32 step = {ratio:.2f} (median of {args.rounds} rounds)")
     if args.results is not None:
         prov = json.loads(args.results.read_text())["provenance"]
         total = sum(v["cpu_s"] for v in prov.get("timings", {}).values()) or 1.0
@@ -72,6 +90,21 @@ def main() -> None:
         for key, rec in sorted(prov.get("timings", {}).items(), key=lambda kv: -kv[1]["cpu_s"]):
             share = 100 * rec["cpu_s"] / total
             print(f"  {key:24s} cpu {rec['cpu_s']:8.0f} s ({share:4.1f} %)  wall {rec['wall_s']:8.0f} s")
+
+
+def bf16_ratio(module: torch.nn.Module, step: Callable[[], torch.Tensor], rounds: int) -> float:
+    """Median over ``rounds`` of (bf16-autocast step time) / (fp32 step time), timed back to back."""
+    opt = torch.optim.AdamW([p for p in module.parameters() if p.requires_grad], lr=1e-4)
+
+    def bf16_step() -> torch.Tensor:
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            return step()
+
+    ratios = []
+    for _ in range(rounds):
+        fp32 = time_train_steps(step, opt, 5)
+        ratios.append(time_train_steps(bf16_step, opt, 5) / fp32)
+    return statistics.median(ratios)
 
 
 if __name__ == "__main__":

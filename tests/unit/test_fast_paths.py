@@ -154,10 +154,10 @@ def _dit_loss(
     return loss, {"half": (loss / 2).detach()}
 
 
-def _train_dit(tmp: Path, mixed: str = "no", **fields: object) -> dict[str, torch.Tensor]:
+def _trained_dit(tmp: Path, mixed: str = "no", **fields: object) -> nn.Module:
     cfg = TrainConfig(steps=3, batch_size=4, lr=1e-3, log_every=1, checkpoint_minutes=0, **fields)  # type: ignore[arg-type]
     acc = make_accelerator(RunConfig(tracker="none", mixed_precision=mixed), tmp, "t", {})
-    model = train_stage(
+    return train_stage(
         acc,
         name="dit",
         model=_tiny_dit(),
@@ -166,6 +166,10 @@ def _train_dit(tmp: Path, mixed: str = "no", **fields: object) -> dict[str, torc
         cfg=cfg,
         checkpoint_root=tmp / "ck",
     )
+
+
+def _train_dit(tmp: Path, mixed: str = "no", **fields: object) -> dict[str, torch.Tensor]:
+    model = _trained_dit(tmp, mixed, **fields)
     return {k: v.detach().float().clone() for k, v in model.state_dict().items()}
 
 
@@ -216,6 +220,44 @@ def test_bf16_autocast_trains_on_cpu_close_to_fp32(tmp_path: Path) -> None:
         torch.testing.assert_close(
             bf16[name], value, rtol=0.05, atol=2e-3, msg=lambda m, n=name: f"{n}: {m}"
         )  # 3 steps at lr 1e-3
+
+
+@pytest.mark.usefixtures("fresh_accelerate_state")
+def test_a_stage_trained_under_bf16_autocast_evaluates_like_one_reloaded_from_disk(tmp_path: Path) -> None:
+    # Mixed precision is a training setting: the returned module has its plain forward back, so a
+    # table samples a stage it just trained exactly as it samples the same stage reused from disk.
+    trained = _trained_dit(tmp_path, mixed="bf16")
+    reloaded = _tiny_dit().eval()
+    reloaded.load_state_dict(trained.state_dict())
+    x, t, c = torch.randn(2, 8, 4), torch.tensor([3, 7]), torch.randn(2, 6, 4)
+    out = trained(x, t, c)
+    assert out.dtype == torch.float32
+    torch.testing.assert_close(out, reloaded(x, t, c), rtol=0.0, atol=0.0)
+
+
+def test_attention_runs_in_fp32_under_a_cpu_bf16_autocast(monkeypatch: pytest.MonkeyPatch) -> None:
+    # PyTorch's bf16 CPU flash-attention backward is several times slower than fp32 (momu.attention).
+    seen: list[torch.dtype] = []
+    sdpa = F.scaled_dot_product_attention
+
+    def spy(q, k, v, **kw):  # type: ignore[no-untyped-def]
+        seen.append(q.dtype)
+        return sdpa(q, k, v, **kw)
+
+    monkeypatch.setattr(F, "scaled_dot_product_attention", spy)
+    model = _tiny_dit().train()
+    x, t, c = torch.randn(2, 8, 4), torch.tensor([3, 7]), torch.randn(2, 6, 4)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        out = model(x, t, c)
+    out.float().square().mean().backward()
+    assert seen and set(seen) == {torch.float32}
+    grads = {n: p.grad for n, p in model.named_parameters() if "to_q" in n}
+    assert grads and all(
+        g is not None and torch.isfinite(g).all() and g.abs().sum() > 0 for g in grads.values()
+    )
+    seen.clear()
+    model(x, t, c)  # without autocast nothing is cast
+    assert set(seen) == {torch.float32}
 
 
 def test_compile_backbones_compiles_in_place_and_keeps_state_dict_keys() -> None:

@@ -2,10 +2,10 @@
 transformer blocks, masked group normalisation and the backbone-call argument checks.
 
 Sequences are channels-last ``(B, T, C)`` unless a docstring says otherwise. Masks are boolean
-with ``True`` = valid frame. Attention goes through :func:`torch.nn.functional.scaled_dot_product_attention`
-with a boolean ``(B, 1, 1, Lk)`` key mask, so padded keys receive exactly zero weight and a padded
-frame can never change a valid one; a caller that knows every key is valid passes no mask, which
-lets SDPA pick its flash kernel on a GPU (docs/performance.md).
+with ``True`` = valid frame. Attention goes through :func:`momu.attention.scaled_dot_product_attention`
+(PyTorch's SDPA) with a boolean ``(B, 1, 1, Lk)`` key mask, so padded keys receive exactly zero
+weight and a padded frame can never change a valid one; a caller that knows every key is valid
+passes no mask, which lets SDPA pick its flash kernel on a GPU (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 
 import torch
-import torch.nn.functional as F
 from diffusers.models.embeddings import get_timestep_embedding
 from torch import Tensor, nn
+
+from momu.attention import scaled_dot_product_attention
 
 __all__ = [
     "TimestepEmbedder",
@@ -113,7 +114,7 @@ class Attention(nn.Module):
             self.recorder.append(weights.detach())
             out = weights @ v
         else:
-            out = F.scaled_dot_product_attention(
+            out = scaled_dot_product_attention(
                 q, k, v, attn_mask=attn_mask, dropout_p=self.dropout if self.training else 0.0
             )
         return self.to_out(out.transpose(1, 2).reshape(b, lq, -1))

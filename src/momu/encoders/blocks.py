@@ -18,6 +18,8 @@ import torch.nn.functional as F
 from einops import rearrange
 from torch import nn
 
+from momu.attention import scaled_dot_product_attention
+
 __all__ = [
     "group_norm",
     "ResBlock1d",
@@ -145,7 +147,7 @@ class Upsample1d(nn.Module):
 
 
 class SelfAttention(nn.Module):
-    """Multi-head self-attention over ``(B, T, C)`` using ``F.scaled_dot_product_attention``.
+    """Multi-head self-attention over ``(B, T, C)`` using :func:`momu.attention.scaled_dot_product_attention`.
 
     ``mask``: optional ``(B, T)`` bool, True = valid frame; padded keys are never attended to.
     """
@@ -161,7 +163,7 @@ class SelfAttention(nn.Module):
     def forward(self, x: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
         q, k, v = rearrange(self.qkv(x), "b t (three h d) -> three b h t d", three=3, h=self.heads)
         attn_mask = None if mask is None else mask[:, None, None, :].to(torch.bool)  # (B, 1, 1, T_k)
-        y = F.scaled_dot_product_attention(q, k, v, attn_mask=attn_mask)
+        y = scaled_dot_product_attention(q, k, v, attn_mask=attn_mask)
         return self.out(rearrange(y, "b h t d -> b t (h d)"))
 
 

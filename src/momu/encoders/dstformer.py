@@ -19,7 +19,8 @@ Architecture (MotionBERT §3.2, "DSTformer"), for a motion ``x`` of shape ``(B, 
    MotionBERT);
 3. LayerNorm and a ``Linear(C, dim_rep)`` + ``tanh`` "pre-logits" representation.
 
-Output: ``(B, T, J, dim_rep)``. Attention is ``torch.nn.functional.scaled_dot_product_attention``.
+Output: ``(B, T, J, dim_rep)``. Attention is :func:`momu.attention.scaled_dot_product_attention`
+(PyTorch's SDPA).
 
 Padding: an optional ``mask (B, T)`` (True = valid frame) is applied as a key mask in every
 temporal attention, and the spatial attention never mixes frames, so the output on the valid
@@ -32,8 +33,9 @@ import math
 from dataclasses import dataclass
 
 import torch
-import torch.nn.functional as F
 from torch import nn
+
+from momu.attention import scaled_dot_product_attention
 
 __all__ = ["DSTformerConfig", "DSTformer", "sinusoidal_embedding"]
 
@@ -109,7 +111,7 @@ class _Attention(nn.Module):
         qkv = self.qkv(x).reshape(n, length, 3, self.num_heads, dim // self.num_heads)
         q, k, v = qkv.permute(2, 0, 3, 1, 4)  # each (N, heads, L, C/heads)
         attn_mask = None if key_mask is None else key_mask[:, None, None, :]  # (N, 1, 1, L)
-        out = F.scaled_dot_product_attention(
+        out = scaled_dot_product_attention(
             q, k, v, attn_mask=attn_mask, dropout_p=self.dropout if self.training else 0.0
         )
         return self.proj(out.transpose(1, 2).reshape(n, length, dim))

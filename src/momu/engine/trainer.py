@@ -442,7 +442,7 @@ def train_stage(
     meter.check(name)
     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
     model.eval()
-    return accelerator.unwrap_model(model)
+    return accelerator.unwrap_model(model, keep_fp32_wrapper=False)  # a plain module, as when reloaded
 
 
 def steps_per_epoch(dataset_size: int, cfg: TrainConfig, num_processes: int) -> int:
