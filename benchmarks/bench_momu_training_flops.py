@@ -69,6 +69,17 @@ def main() -> None:
 
     steps.append(("music VAE", vae.music_vae, music_step))
     rows = [(name, *step_flops_and_time(module, step)) for name, module, step in steps]
+    # As the table trains it: one random length per batch between train_min_seconds and the window.
+    min_frames = round(frames * float(m.train_min_seconds) / float(m.window_seconds))
+    as_trained = DiffusionStage(
+        stage.music_backbone,
+        stage.motion_backbone,
+        stage.loss,
+        d,
+        min_frames,
+        per_batch=m.train_lengths == "batch",
+    ).train()
+    steps.append((f"diffusion, {min_frames}-{frames} frames", as_trained, lambda: as_trained(data)[0]))
     for name, flops, seconds in rows:
         achieved = flops / seconds
         print(
