@@ -5,10 +5,11 @@ the encoders' self-attention) calls :func:`scaled_dot_product_attention`, which 
 :func:`torch.nn.functional.scaled_dot_product_attention` except in one case: **on the CPU under a
 bf16 or fp16 autocast, the attention itself runs in fp32.** PyTorch's CPU flash-attention backward
 in bf16 is several times slower than in fp32, so bf16 autocast gained nothing on a MoMu cpu-preset
-diffusion step; with the attention in fp32 and every other matmul in bf16 the step takes about 0.6×
-the fp32 time (``python benchmarks/bench_momu_training_flops.py --precision bf16``; numbers in
-docs/performance.md). Softmax in fp32 is also what autocast itself does on a GPU's math path. On a
-GPU nothing changes: there the lower-precision kernels are the fast ones.
+diffusion step; with the attention in fp32 and every other matmul in bf16 a full 4-s step takes
+about 0.6× the fp32 time, though the table's shorter variable-length steps gain almost nothing
+(``python benchmarks/bench_momu_training_flops.py --bf16``; numbers in docs/performance.md).
+Softmax in fp32 is also what autocast itself does on a GPU's math path. On a GPU nothing changes:
+there the lower-precision kernels are the fast ones.
 """
 
 from __future__ import annotations
