@@ -11,7 +11,10 @@ never tuned on the test clips the committed tables report. Read the "follows its
 verdicts in ``<out>/momu_table3/results.md``.
 
     python benchmarks/momu_learnable_steps_study.py --preset cpu --data synth --out OUT \
-        --tracker none --seeds 0 learnable_train.steps=4000
+        --tracker none --seeds 0 learnable_train.steps=4000 [--subset fs25]
+
+``--subset fs25`` runs Table 4's Figure Skating 25-s stand-in instead (results under
+``<out>/momu_table4/``).
 
 Findings (2026-12-02; seed 0, 64 validation crops of 4 s; right − other = music from the clip's own
 motion minus music from another clip's, scored against the clip's music; 95 % clip-bootstrap
@@ -46,6 +49,7 @@ The cpu preset now uses setting 5 (``recipes/configs/momu_tables.yaml``); settin
 
 from __future__ import annotations
 
+import os
 import sys
 from functools import partial
 from pathlib import Path
@@ -58,12 +62,12 @@ from momu.methods.momu.tables_setup import SUBSET_LABELS, beat_columns, onset_co
 CONFIGS = Path(__file__).resolve().parents[1] / "recipes" / "configs"
 
 
-def study_spec() -> TableSpec:
-    """Table 3 restricted to its 25-s subset, evaluated on the validation split."""
-    subset = "fe25"
+def study_spec(subset: str = "fe25") -> TableSpec:
+    """Table 3 (``fe25``) or Table 4 (``fs25``) restricted to one subset, on the validation split."""
+    table = "momu_table4" if subset.startswith("fs") else "momu_table3"
     return _spec(
-        "momu_table3",
-        "Learnable-encoder study: Floor Exercise 25-s stand-in, validation split",
+        table,
+        f"Learnable-encoder study: {SUBSET_LABELS[subset]} stand-in, validation split",
         (subset,),
         [*beat_columns(subset, SUBSET_LABELS[subset]), onset_column(subset, SUBSET_LABELS[subset])],
         partial(evaluate_motion_to_music, learnable=True),
@@ -75,6 +79,16 @@ def study_spec() -> TableSpec:
 
 
 if __name__ == "__main__":
+    # --subset is the study's own option: removed before the table's parser sees argv, and passed to
+    # the --jobs workers (which rerun this script) through the environment they inherit
+    chosen = os.environ.get("MOMU_STUDY_SUBSET", "fe25")
+    if "--subset" in sys.argv:
+        at = sys.argv.index("--subset")
+        chosen = sys.argv[at + 1]
+        del sys.argv[at : at + 2]
+        os.environ["MOMU_STUDY_SUBSET"] = chosen
+    if chosen not in ("fe25", "fs25"):
+        sys.exit(f"--subset: expected fe25 or fs25, got {chosen!r}")
     if "method.evaluation.split=val" not in sys.argv:
         sys.argv.append("method.evaluation.split=val")
-    sys.exit(run_table(study_spec()))
+    sys.exit(run_table(study_spec(chosen)))
