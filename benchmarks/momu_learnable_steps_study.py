@@ -45,6 +45,17 @@ intervals):
 
 The cpu preset now uses setting 5 (``recipes/configs/momu_tables.yaml``); settings 1–4 are
 ``learnable_train.steps=1200`` / ``learnable_encoder.standardize=false`` overrides of it.
+
+Findings on Table 4's FS-25s stand-in (``--subset fs25``; 2026-12-03; seeds 0 and 1, 64 validation
+crops, the same intervals), after the 5-seed test run left its F1 condition check not
+distinguishable:
+
+6. The preset (4 000 steps, standardised inputs): right − other F1 −1.81 [−6.64, +3.40] (both seeds
+   negative), onset F1 +2.84 [+0.10, +5.69], BCS −3.39 [−7.84, +1.09]; 13 min on two cores.
+7. 8 000 steps (``learnable_train.steps=8000``): onset F1 +13.5 [+6.92, +19.7] and it beats
+   shuffled on onset F1 (+11.9 [+5.81, +17.7]), but F1 −0.00 [−8.74, +9.10] and BCS +0.33 [−7.15,
+   +7.57] stay not distinguishable; 19 min. Longer training makes the onsets follow the motion,
+   not the 0.25-s beat bins; the preset was left at 4 000 steps.
 """
 
 from __future__ import annotations

@@ -5,6 +5,7 @@ The extractors here are small untrained networks: the metric arithmetic does not
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -185,8 +186,9 @@ def test_metrics_without_extractor_explain_how_to_get_one() -> None:
 def test_provenance_names_extractor_and_checkpoint_hash(tmp_path: Path) -> None:
     ext = _motion_extractor()
     path = tmp_path / "motion.safetensors"
-    digest = save_extractor(path, ext.model)
+    digest = save_extractor(path, ext.model, provenance={"git_commit": "0123abc"})
     assert digest == file_sha256(path)
+    assert json.loads(path.with_suffix(".json").read_text())["git_commit"] == "0123abc"
     for name in ("fid_learned", "mean_kld", "diversity"):
         metric = METRICS.build(name, {"extractor": str(path)})
         prov = metric.provenance()

@@ -14,6 +14,7 @@ from torch.utils.data import TensorDataset
 
 from momu.engine import TrainConfig
 from momu.engine.context import RunContext
+from momu.engine.provenance import git_commit
 from momu.engine.table import Column, PaperRow, Row, TableSpec, run_table
 from momu.registry import METHODS
 
@@ -90,6 +91,26 @@ def test_rerunning_one_row_reuses_its_trained_stage(tmp_path: Path) -> None:
     result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
     assert [r["id"] for r in result["rows"]] == ["#2"]
     assert set(result["provenance"]["stages"].values()) == {"reused"}
+    assert "Stages from other commits" not in (tmp_path / "toy_table" / "results.md").read_text()
+
+
+def test_a_stage_reused_from_another_commit_is_named_in_the_results(tmp_path: Path) -> None:
+    args = ["--preset", "smoke", "--out", str(tmp_path), "--tracker", "none", "--rows", "#2"]
+    assert run_table(SPEC, args) == 0
+    (record,) = (tmp_path / "toy_table" / "parts").glob("toy-*/stage.json")
+    meta = json.loads(record.read_text())
+    assert meta["git_commit"] == git_commit()  # the commit that trained it
+    record.write_text(json.dumps({**meta, "git_commit": "0123abc"}))
+    assert run_table(SPEC, args) == 0
+    result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
+    assert list(result["provenance"]["stages"].values()) == ["reused, trained at 0123abc"]
+    md = (tmp_path / "toy_table" / "results.md").read_text()
+    assert f"1 reused stage(s) were trained at another commit than this run's ({record.parent.name};" in md
+    del meta["git_commit"]  # a stage written before commits were recorded
+    record.write_text(json.dumps(meta))
+    assert run_table(SPEC, args) == 0
+    result = json.loads((tmp_path / "toy_table" / "results.json").read_text())
+    assert list(result["provenance"]["stages"].values()) == ["reused, trained at an unrecorded commit"]
 
 
 @pytest.mark.parametrize(

@@ -17,6 +17,7 @@ stored under ``<out>/parts/<name>-<hash(key)>/``, so
 from __future__ import annotations
 
 import fcntl
+import functools
 import hashlib
 import json
 import logging
@@ -33,6 +34,7 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
+from momu.engine.provenance import git_commit
 from momu.engine.trainer import (
     WEIGHT_NEUTRAL_FIELDS,
     LossFn,
@@ -95,7 +97,7 @@ class RunContext:
     accelerator: Accelerator
     out_dir: Path
     resume: bool = False
-    trained: dict[str, str] = field(default_factory=dict)  # stage folder -> "trained" | "reused"
+    trained: dict[str, str] = field(default_factory=dict)  # stage folder -> "trained" | "reused[, ...]"
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
     parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
 
@@ -110,6 +112,26 @@ class RunContext:
             rec["wall_s"] += time.perf_counter() - wall
             rec["cpu_s"] += time.process_time() - cpu
             rec["calls"] += 1
+
+    @functools.cached_property
+    def commit(self) -> str:
+        """The git commit this run's code is at (:func:`~momu.engine.provenance.git_commit`)."""
+        return git_commit()
+
+    def mark_reused(self, name: str, trained_at: str | None) -> None:
+        """Record that the cached stage ``name`` was reused; ``trained_at`` is the commit that trained it.
+
+        A stage key hashes the configuration, not the code, so a stage trained by an older commit
+        is reused after the code changed (docs/recipes.md). When that commit is not this run's, the
+        record says so: ``"reused, trained at <commit>"``, or ``"reused, trained at an unrecorded
+        commit"`` for a stage cached before commits were recorded. "trained" stays if this run
+        trained the stage itself.
+        """
+        if trained_at == self.commit:
+            how = "reused"
+        else:
+            how = f"reused, trained at {trained_at or 'an unrecorded commit'}"
+        self.trained.setdefault(name, how)
 
     @property
     def parts_dir(self) -> Path:
@@ -176,7 +198,8 @@ class RunContext:
         if weights.is_file():
             model.load_state_dict(load_file(str(weights)), strict=True)
             model.to(self.accelerator.device).eval()
-            self.trained.setdefault(folder.name, "reused")  # "trained" stays if this run trained it
+            record = folder / "stage.json"
+            self.mark_reused(folder.name, read_json(record).get("git_commit") if record.is_file() else None)
             log.info("stage %s: reusing %s", name, folder)
             return model
         data = dataset() if callable(dataset) else dataset
@@ -194,7 +217,10 @@ class RunContext:
             )
         if self.accelerator.is_main_process:
             write_safetensors(weights, trained.state_dict())
-            write_json(folder / "stage.json", {"name": name, "key": dict(identity), "train": cfg.__dict__})
+            write_json(
+                folder / "stage.json",
+                {"name": name, "key": dict(identity), "train": cfg.__dict__, "git_commit": self.commit},
+            )
         self.accelerator.wait_for_everyone()
         self.trained[folder.name] = "trained"
         return trained

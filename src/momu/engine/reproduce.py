@@ -22,7 +22,13 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from momu.engine.table_report import cells_caption, ordering_lines, size_line, verdict_lines
+from momu.engine.table_report import (
+    cells_caption,
+    ordering_lines,
+    size_line,
+    stale_stage_lines,
+    verdict_lines,
+)
 from momu.io import atomic_write_text
 
 __all__ = ["MARKER", "publish", "readme_text"]
@@ -56,6 +62,7 @@ def readme_text(result: dict[str, Any], command: str) -> str:
         size_line(result),
         *verdict_lines(result),
         *ordering_lines(result),
+        *stale_stage_lines(result),
     ]
     return "\n".join(lines) + "\n"
 

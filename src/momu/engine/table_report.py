@@ -13,7 +13,16 @@ from typing import Any
 from momu.engine.scores import VARIANTS
 from momu.engine.table_results import outcome_phrase
 
-__all__ = ["fmt", "cell", "render_markdown", "verdict_lines", "ordering_lines", "cells_caption", "size_line"]
+__all__ = [
+    "fmt",
+    "cell",
+    "render_markdown",
+    "verdict_lines",
+    "ordering_lines",
+    "cells_caption",
+    "size_line",
+    "stale_stage_lines",
+]
 
 
 def fmt(value: float | None, signed: bool = False) -> str:
@@ -120,6 +129,23 @@ def ordering_lines(result: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def stale_stage_lines(result: Mapping[str, Any]) -> list[str]:
+    """A warning when the run reused stages trained at another commit (``provenance.stages``).
+
+    A stage key hashes the configuration, not the code (docs/recipes.md), so such a
+    stage may not be what this commit's code would train.
+    """
+    stale = sorted(k for k, v in result["provenance"]["stages"].items() if v.startswith("reused, trained at"))
+    if not stale:
+        return []
+    return [
+        "",
+        f"**Stages from other commits:** {len(stale)} reused stage(s) were trained at another commit than "
+        f"this run's ({', '.join(stale)}; see `provenance.stages` in results.json). A stage key hashes the "
+        "configuration, not the code: rerun into a fresh `--out` to train every stage with this code.",
+    ]
+
+
 def _table(result: Mapping[str, Any]) -> list[str]:
     cols = list(result["columns"])
     header = "| id | row | " + " | ".join(f"{c['label']} ours | {c['label']} paper" for c in cols) + " |"
@@ -179,6 +205,7 @@ def render_markdown(result: Mapping[str, Any], notes: Sequence[str] = ()) -> str
         "motion shuffled across clips: they show what *good* and *chance* are on this data.",
         *verdict_lines(result),
         *ordering_lines(result),
+        *stale_stage_lines(result),
     ]
     lines += ["", "## Notes", "", *[f"- {n}" for n in notes]] if notes else []
     lines += [

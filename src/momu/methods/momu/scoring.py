@@ -23,6 +23,7 @@ import numpy as np
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.scores import ROW, Scores, components
+from momu.io import read_json
 from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
 from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.kinematic_beats import kinematic_beat_bins, kinematic_beat_frames
@@ -238,7 +239,8 @@ def trained_extractors(
     for kind, path in paths.items():
         with ctx.lock(path.stem):
             if path.is_file():
-                ctx.trained.setdefault(path.stem, "reused")  # "trained" stays if this run trained it
+                record = path.with_suffix(".json")
+                ctx.mark_reused(path.stem, read_json(record).get("git_commit") if record.is_file() else None)
                 continue
             if acc.is_main_process:
                 if clips is None:
@@ -250,7 +252,14 @@ def trained_extractors(
                     val_fraction=0.0,
                 )
                 path.parent.mkdir(parents=True, exist_ok=True)
-                train_extractor(kind, clips, path, model_config=_extractor_config(kind, embed), train=train)
+                train_extractor(
+                    kind,
+                    clips,
+                    path,
+                    model_config=_extractor_config(kind, embed),
+                    train=train,
+                    provenance={"git_commit": ctx.commit},
+                )
             acc.wait_for_everyone()
             ctx.trained[path.stem] = "trained"
     return {kind: load_extractor(path) for kind, path in paths.items()}

@@ -9,7 +9,7 @@ import dataclasses
 import hashlib
 import json
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -56,9 +56,14 @@ def _kind_of(model: nn.Module) -> str:
 
 
 def save_extractor(
-    path: str | Path, model: MotionClassifier | AudioClassifier, summary: dict[str, Any] | None = None
+    path: str | Path,
+    model: MotionClassifier | AudioClassifier,
+    summary: dict[str, Any] | None = None,
+    provenance: Mapping[str, str] | None = None,
 ) -> str:
     """Write ``path`` (``.safetensors`` weights) and ``path.with_suffix('.json')`` (kind, config, summary).
+
+    ``provenance`` (e.g. ``{"git_commit": ...}``) is stored in the ``.json`` beside the other fields.
 
     Both files are written atomically. Returns the sha256 of the weights file.
     """
@@ -81,6 +86,7 @@ def save_extractor(
         "sha256": digest,
         "momu_version": __version__,
         "train": summary or {},
+        **dict(provenance or {}),
     }
     with atomic_path(_sidecar(path)) as tmp:
         tmp.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")

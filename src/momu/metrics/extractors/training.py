@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -280,8 +280,11 @@ def train_extractor(
     *,
     model_config: MotionClassifierConfig | AudioClassifierConfig | None = None,
     train: TrainConfig | None = None,
+    provenance: Mapping[str, str] | None = None,
 ) -> tuple[MotionExtractor | AudioClassifierEmbedding, dict[str, Any]]:
     """Train a ``"motion"`` or ``"audio"`` extractor on labelled clips and (optionally) save it to ``out``.
+
+    ``provenance`` is stored in the saved ``.json`` (:func:`~momu.metrics.extractors.storage.save_extractor`).
 
     Returns the evaluation wrapper (with checkpoint path and sha256 when saved) and the training summary.
     """
@@ -296,7 +299,7 @@ def train_extractor(
         model, summary = train_audio_classifier(clips, model_config, train)
     else:
         raise ValueError(f"extractor kind must be 'motion' or 'audio', got {kind!r}")
-    digest = None if out is None else save_extractor(out, model, summary)
+    digest = None if out is None else save_extractor(out, model, summary, provenance)
     device = (train or TrainConfig()).device
     if isinstance(model, MotionClassifier):
         return MotionExtractor(model, checkpoint=out, sha256=digest, device=device), summary
