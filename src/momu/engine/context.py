@@ -118,15 +118,16 @@ class RunContext:
         """The git commit this run's code is at (:func:`~momu.engine.provenance.git_commit`)."""
         return git_commit()
 
-    def mark_reused(self, name: str, trained_at: str | None) -> None:
-        """Record that the cached stage ``name`` was reused; ``trained_at`` is the commit that trained it.
+    def mark_reused(self, name: str, record: Path) -> None:
+        """Record that the cached stage ``name`` was reused; ``record`` is the JSON written beside it.
 
-        A stage key hashes the configuration, not the code, so a stage trained by an older commit
-        is reused after the code changed (docs/recipes.md). When that commit is not this run's, the
-        record says so: ``"reused, trained at <commit>"``, or ``"reused, trained at an unrecorded
-        commit"`` for a stage cached before commits were recorded. "trained" stays if this run
-        trained the stage itself.
+        The record's ``git_commit`` is the commit that trained the stage. A stage key hashes the
+        configuration, not the code, so a stage trained by an older commit is reused after the code
+        changed (docs/recipes.md). When that commit is not this run's, the entry says so:
+        ``"reused, trained at <commit>"``, or ``"reused, trained at an unrecorded commit"`` for a
+        stage cached before commits were recorded. "trained" stays if this run trained the stage.
         """
+        trained_at = read_json(record).get("git_commit") if record.is_file() else None
         if trained_at == self.commit:
             how = "reused"
         else:
@@ -198,8 +199,7 @@ class RunContext:
         if weights.is_file():
             model.load_state_dict(load_file(str(weights)), strict=True)
             model.to(self.accelerator.device).eval()
-            record = folder / "stage.json"
-            self.mark_reused(folder.name, read_json(record).get("git_commit") if record.is_file() else None)
+            self.mark_reused(folder.name, folder / "stage.json")
             log.info("stage %s: reusing %s", name, folder)
             return model
         data = dataset() if callable(dataset) else dataset

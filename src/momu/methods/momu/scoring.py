@@ -23,7 +23,6 @@ import numpy as np
 from momu.data.types import Clip
 from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.scores import ROW, Scores, components
-from momu.io import read_json
 from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
 from momu.metrics.extractors import load_extractor, train_extractor
 from momu.metrics.kinematic_beats import kinematic_beat_bins, kinematic_beat_frames
@@ -239,8 +238,7 @@ def trained_extractors(
     for kind, path in paths.items():
         with ctx.lock(path.stem):
             if path.is_file():
-                record = path.with_suffix(".json")
-                ctx.mark_reused(path.stem, read_json(record).get("git_commit") if record.is_file() else None)
+                ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
                 continue
             if acc.is_main_process:
                 if clips is None:
