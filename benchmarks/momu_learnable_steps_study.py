@@ -54,8 +54,8 @@ distinguishable:
    negative), onset F1 +2.84 [+0.10, +5.69], BCS −3.39 [−7.84, +1.09]; 13 min on two cores.
 7. 8 000 steps (``learnable_train.steps=8000``): onset F1 +13.5 [+6.92, +19.7] and it beats
    shuffled on onset F1 (+11.9 [+5.81, +17.7]), but F1 −0.00 [−8.74, +9.10] and BCS +0.33 [−7.15,
-   +7.57] stay not distinguishable; 19 min. Longer training makes the onsets follow the motion,
-   not the 0.25-s beat bins; the preset was left at 4 000 steps.
+   +7.57] stay not distinguishable; 19 min. At both lengths the onsets follow the motion and the
+   0.25-s beat bins do not; the preset was left at 4 000 steps.
 """
 
 from __future__ import annotations
