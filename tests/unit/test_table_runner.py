@@ -240,3 +240,46 @@ def test_warming_fills_numba_cache_with_the_beat_kernels() -> None:
 
     cached = [p.name for p in Path(os.environ["NUMBA_CACHE_DIR"]).rglob("*.nbi")]
     assert any("beat" in name for name in cached), cached
+
+
+def test_a_worker_trains_the_extractor_nobody_is_training_before_waiting(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two --jobs workers that need both FID/FAD extractors train one each instead of queueing."""
+    import threading
+    from contextlib import ExitStack
+
+    from omegaconf import OmegaConf
+
+    from momu.engine import RunConfig, make_accelerator
+    from momu.methods.momu import scoring
+
+    accelerator = make_accelerator(RunConfig(tracker="none"), tmp_path, "t", {})
+    ctx = RunContext(accelerator=accelerator, out_dir=tmp_path)
+    digest = scoring.stage_key_hash({"data": {"name": "d"}, "epochs": 1, "samples_per_clip": 1, "seed": 0})
+    motion = ctx.parts_dir / f"extractor-motion-{digest}.safetensors"
+    other_worker = ExitStack()
+    assert other_worker.enter_context(ctx.lock(motion.stem)) is True  # it is training the motion extractor
+    with ctx.lock(motion.stem, wait=False) as held:
+        assert held is False  # a lock another job holds is refused at once
+    order: list[str] = []
+
+    def train(kind: str, clips: object, path: Path, **kwargs: object) -> None:
+        order.append(kind)
+        path.write_bytes(b"")
+        motion.write_bytes(b"")  # meanwhile the other worker finishes the motion extractor
+        other_worker.close()
+
+    monkeypatch.setattr("momu.methods.momu.data.select_split", lambda dataset, split: [0])
+    monkeypatch.setattr(scoring, "train_extractor", train)
+    monkeypatch.setattr(scoring, "load_extractor", lambda path: path.name.split("-")[1])
+    ev = OmegaConf.create({"extractor_epochs": 1, "extractor_samples_per_clip": 1})
+    give_up = threading.Timer(10.0, other_worker.close)  # a worker that waits first fails, not hangs
+    give_up.start()
+    try:
+        got = scoring.trained_extractors(ctx, ["clip"], {"name": "d"}, ev)
+    finally:
+        give_up.cancel()
+    assert order == ["audio"]  # it trained the audio extractor instead of waiting for the motion one
+    assert got == {"motion": "motion", "audio": "audio"}
+    assert ctx.trained[motion.stem].startswith("reused")

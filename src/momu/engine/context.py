@@ -140,23 +140,32 @@ class RunContext:
         return self.parts_root if self.parts_root is not None else self.out_dir / "parts"
 
     @contextmanager
-    def lock(self, name: str) -> Iterator[None]:
+    def lock(self, name: str, *, wait: bool = True) -> Iterator[bool]:
         """Hold an exclusive lock on stage ``name`` of this output folder (``parts/.locks/<name>``).
 
         Parallel table jobs (``--jobs``) share the output folder; a job that needs a stage another
         job is training waits for it and then reuses it instead of training it twice. Within one
         accelerate run of several processes the processes already coordinate through barriers, so
         no file lock is taken there (one would deadlock against them).
+
+        Yields whether the lock is held: always ``True`` when ``wait``; with ``wait=False`` it is
+        ``False`` at once if another job holds the lock, so a job that needs several stages can
+        train one nobody is training instead of waiting
+        (:func:`momu.methods.momu.scoring.trained_extractors`).
         """
         if self.accelerator.num_processes > 1:
-            yield
+            yield True
             return
         folder = self.parts_dir / ".locks"
         folder.mkdir(parents=True, exist_ok=True)
         with open(folder / f"{name}.lock", "a+") as handle:
-            fcntl.flock(handle, fcntl.LOCK_EX)
             try:
-                yield
+                fcntl.flock(handle, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                yield False
+                return
+            try:
+                yield True
             finally:
                 fcntl.flock(handle, fcntl.LOCK_UN)
 

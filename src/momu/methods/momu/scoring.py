@@ -232,34 +232,41 @@ def trained_extractors(
         **({"embed_dim": embed} if embed else {}),
     }
     digest = stage_key_hash(key)
-    acc = ctx.accelerator
     paths = {kind: ctx.parts_dir / f"extractor-{kind}-{digest}.safetensors" for kind in kinds}
-    clips: list[Clip] | None = None
-    for kind, path in paths.items():
-        with ctx.lock(path.stem):
-            if path.is_file():
-                ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
-                continue
-            if acc.is_main_process:
-                if clips is None:
-                    clips = [dataset[i] for i in select_split(dataset, "train")]
-                train = ExtractorTrainConfig(
-                    epochs=int(cfg.extractor_epochs),
-                    samples_per_clip=int(cfg.extractor_samples_per_clip),
-                    seed=seed,
-                    val_fraction=0.0,
-                )
-                path.parent.mkdir(parents=True, exist_ok=True)
-                train_extractor(
-                    kind,
-                    clips,
-                    path,
-                    model_config=_extractor_config(kind, embed),
-                    train=train,
-                    provenance={"git_commit": ctx.commit},
-                )
-            acc.wait_for_everyone()
-            ctx.trained[path.stem] = "trained"
+    train = ExtractorTrainConfig(
+        epochs=int(cfg.extractor_epochs),
+        samples_per_clip=int(cfg.extractor_samples_per_clip),
+        seed=seed,
+        val_fraction=0.0,
+    )
+    clips: list[Clip] = []  # the train split, built once and only if an extractor is trained
+    pending = list(kinds)
+    # first the extractors no other --jobs worker is training, then wait for the rest: two workers
+    # that reach the extractors together train one each instead of one waiting for both
+    for wait in (False, True):
+        for kind in list(pending):
+            path = paths[kind]
+            with ctx.lock(path.stem, wait=wait) as held:
+                if not held:
+                    continue
+                pending.remove(kind)
+                if path.is_file():
+                    ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
+                    continue
+                if ctx.accelerator.is_main_process:
+                    if not clips:
+                        clips.extend(dataset[i] for i in select_split(dataset, "train"))
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    train_extractor(
+                        kind,
+                        clips,
+                        path,
+                        model_config=_extractor_config(kind, embed),
+                        train=train,
+                        provenance={"git_commit": ctx.commit},
+                    )
+                ctx.accelerator.wait_for_everyone()
+                ctx.trained[path.stem] = "trained"
     return {kind: load_extractor(path) for kind, path in paths.items()}
 
 
