@@ -5,7 +5,8 @@ and one thread, (1) the dense fp32 matmul throughput of this core (the ceiling),
 trainable stage of the cpu preset (music VAE, motion VAE + RCL, θ_a + θ_m diffusion) the FLOPs of
 one training step (forward + backward, counted by ``torch.utils.flop_counter``) divided by its
 step time, and prints their ratio. It also prints the per-stage profile of a finished table run
-when given its ``results.json`` (``provenance.timings``: wall and CPU seconds per category).
+when given its ``results.json`` (``provenance.timings``: wall and CPU seconds per category), and how
+much of the jobs' wall time the CPU seconds fill (the rest is packing and waiting on shared stages).
 
 With ``--bf16`` it also times every step under a CPU bf16 autocast (what ``mixed_precision: bf16``
 trains with), in rounds that alternate with the fp32 steps so a shared machine slows both alike, and
@@ -113,6 +114,11 @@ def main() -> None:
         for key, rec in sorted(prov.get("timings", {}).items(), key=lambda kv: -kv[1]["cpu_s"]):
             share = 100 * rec["cpu_s"] / total
             print(f"  {key:24s} cpu {rec['cpu_s']:8.0f} s ({share:4.1f} %)  wall {rec['wall_s']:8.0f} s")
+        jobs, wall = int(prov.get("jobs", 1)), float(prov["wall_time_s"])
+        print(
+            f"  the CPU seconds fill {100 * total / (jobs * wall):.0f} % of {jobs} job(s) x {wall:.0f} s "
+            f"of wall; perfectly packed they would take {total / jobs / 60:.0f} min"
+        )
 
 
 def step_ratio(

@@ -242,7 +242,7 @@ def test_warming_fills_numba_cache_with_the_beat_kernels() -> None:
     assert any("beat" in name for name in cached), cached
 
 
-def test_a_worker_trains_the_extractor_nobody_is_training_before_waiting(
+def test_a_worker_trains_the_extractor_nobody_is_training_and_waits_only_to_score(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Two --jobs workers that need both FID/FAD extractors train one each instead of queueing."""
@@ -262,24 +262,26 @@ def test_a_worker_trains_the_extractor_nobody_is_training_before_waiting(
     assert other_worker.enter_context(ctx.lock(motion.stem)) is True  # it is training the motion extractor
     with ctx.lock(motion.stem, wait=False) as held:
         assert held is False  # a lock another job holds is refused at once
-    order: list[str] = []
+    trained: list[str] = []
 
     def train(kind: str, clips: object, path: Path, **kwargs: object) -> None:
-        order.append(kind)
+        trained.append(kind)
         path.write_bytes(b"")
-        motion.write_bytes(b"")  # meanwhile the other worker finishes the motion extractor
-        other_worker.close()
 
     monkeypatch.setattr("momu.methods.momu.data.select_split", lambda dataset, split: [0])
     monkeypatch.setattr(scoring, "train_extractor", train)
     monkeypatch.setattr(scoring, "load_extractor", lambda path: path.name.split("-")[1])
     ev = OmegaConf.create({"extractor_epochs": 1, "extractor_samples_per_clip": 1})
-    give_up = threading.Timer(10.0, other_worker.close)  # a worker that waits first fails, not hangs
+    give_up = threading.Timer(10.0, other_worker.close)  # a worker that waits fails the test, not hangs
     give_up.start()
     try:
-        got = scoring.trained_extractors(ctx, ["clip"], {"name": "d"}, ev)
+        scoring.start_extractors(ctx, ["clip"], {"name": "d"}, ev)  # before the unit trains its stages
+        assert trained == ["audio"]  # it trained the audio extractor instead of waiting for the motion one
+        motion.write_bytes(b"")  # the other worker finishes the motion extractor
+        other_worker.close()
+        got = scoring.trained_extractors(ctx, ["clip"], {"name": "d"}, ev)  # when it scores
     finally:
         give_up.cancel()
-    assert order == ["audio"]  # it trained the audio extractor instead of waiting for the motion one
+    assert trained == ["audio"]
     assert got == {"motion": "motion", "audio": "audio"}
     assert ctx.trained[motion.stem].startswith("reused")

@@ -34,6 +34,7 @@ repeat the floor).
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +59,7 @@ from momu.methods.momu.scoring import (
     music_onset_f1s,
     pair_components,
     replace_clip,
+    start_extractors,
     trained_extractors,
 )
 
@@ -79,10 +81,12 @@ def model_folder(ctx: RunContext, method: MoMu, data_key: Any, seed: int) -> Pat
 
 
 def fit_momu(
-    ctx: RunContext, cfg: DictConfig, seed: int
+    ctx: RunContext, cfg: DictConfig, seed: int, *, extractors: Sequence[str] = ()
 ) -> tuple[MoMu, MoMuModel, Any, dict[str, Any], Path]:
     """Train (or reuse) ``cfg.method`` on ``cfg.dataset`` for ``seed`` and save the model once.
 
+    ``extractors``: the FID/FAD extractors the caller will score with; those no ``--jobs`` worker
+    has yet are trained first (:func:`~momu.methods.momu.scoring.start_extractors`).
     Returns ``(method, model, dataset, data_key, model folder)``.
     """
     method = build_component(cfg.method, "methods")
@@ -92,6 +96,9 @@ def fit_momu(
     dataset = build_component(cfg.dataset, "datasets")
     method = method.for_dataset(dataset)
     check_evaluation_splits(method.cfg.evaluation, dataset)  # before any training
+    if extractors:
+        with ctx.timed("extractors"):
+            start_extractors(ctx, dataset, data_key, method.cfg.evaluation, kinds=extractors)
     model = method.fit(ctx, dataset, data_key, seed)
     folder = model_folder(ctx, method, data_key, seed)
     if ctx.accelerator.is_main_process and not (folder / "momu.json").is_file():
@@ -153,7 +160,7 @@ def _floors(extractors: dict[str, Any], dataset: Any, ev: Any, truth: list[Clip]
 
 def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     """One Table 7 / Table 10 row for one seed: train (or reuse) its stages, generate, score."""
-    method, model, dataset, data_key, folder = fit_momu(ctx, cfg, seed)
+    method, model, dataset, data_key, folder = fit_momu(ctx, cfg, seed, extractors=("motion", "audio"))
     ev = method.cfg.evaluation
     truth = eval_crops(dataset, ev.split, ev.num_clips, eval_lengths(ev, seed))
     if len(truth) < 2:

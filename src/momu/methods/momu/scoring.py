@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -42,6 +43,7 @@ __all__ = [
     "music_onset_f1s",
     "motion_onset_f1s",
     "trained_extractors",
+    "start_extractors",
     "fad",
     "fid",
 ]
@@ -218,56 +220,83 @@ def trained_extractors(
     ``<out>/parts/extractor-<kind>-<hash>.safetensors`` (the hash covers the data, the training
     settings and the extractor seed, not the kind list, so a run that
     needs only the motion classifier shares its file with one that needs both); the main process
-    trains, the others wait and load the same files.
+    trains, the others wait and load the same files. An extractor another ``--jobs`` worker is
+    training is waited for last (:func:`start_extractors`).
     """
-    from momu.methods.momu.data import select_split
+    paths = _extractor_paths(ctx, data_key, cfg, kinds)
+    for wait in (False, True):
+        _train_missing_extractors(ctx, dataset, cfg, paths, wait=wait)
+    return {kind: load_extractor(path) for kind, path in paths.items()}
 
+
+def start_extractors(
+    ctx: RunContext,
+    dataset: Any,
+    data_key: Mapping[str, Any],
+    cfg: Any,
+    kinds: Sequence[str] = ("motion", "audio"),
+) -> None:
+    """Train now the extractors of ``kinds`` that no other ``--jobs`` worker has or is training.
+
+    A unit calls this before it trains its own stages: two workers that start together then train
+    one extractor each (the motion classifier costs several times the audio one), and neither
+    waits for an extractor when it comes to score. Numbers do not change: an extractor is seeded
+    by ``extractor_seed`` alone, whichever worker trains it and whenever.
+    """
+    _train_missing_extractors(ctx, dataset, cfg, _extractor_paths(ctx, data_key, cfg, kinds), wait=False)
+
+
+def _extractor_paths(
+    ctx: RunContext, data_key: Mapping[str, Any], cfg: Any, kinds: Sequence[str]
+) -> dict[str, Path]:
     embed = int(getattr(cfg, "extractor_embed_dim", 0) or 0)
-    seed = int(getattr(cfg, "extractor_seed", 0))
     key = {
         "data": dict(data_key),
         "epochs": int(cfg.extractor_epochs),
         "samples_per_clip": int(cfg.extractor_samples_per_clip),
-        "seed": seed,
+        "seed": int(getattr(cfg, "extractor_seed", 0)),
         **({"embed_dim": embed} if embed else {}),
     }
     digest = stage_key_hash(key)
-    paths = {kind: ctx.parts_dir / f"extractor-{kind}-{digest}.safetensors" for kind in kinds}
+    return {kind: ctx.parts_dir / f"extractor-{kind}-{digest}.safetensors" for kind in kinds}
+
+
+def _train_missing_extractors(
+    ctx: RunContext, dataset: Any, cfg: Any, paths: Mapping[str, Path], *, wait: bool
+) -> None:
+    """Train (main process) or mark reused each extractor of ``paths``; with ``wait=False`` skip
+    those whose lock another ``--jobs`` worker holds."""
+    from momu.methods.momu.data import select_split
+
+    embed = int(getattr(cfg, "extractor_embed_dim", 0) or 0)
     train = ExtractorTrainConfig(
         epochs=int(cfg.extractor_epochs),
         samples_per_clip=int(cfg.extractor_samples_per_clip),
-        seed=seed,
+        seed=int(getattr(cfg, "extractor_seed", 0)),
         val_fraction=0.0,
     )
     clips: list[Clip] = []  # the train split, built once and only if an extractor is trained
-    pending = list(kinds)
-    # first the extractors no other --jobs worker is training, then wait for the rest: two workers
-    # that reach the extractors together train one each instead of one waiting for both
-    for wait in (False, True):
-        for kind in list(pending):
-            path = paths[kind]
-            with ctx.lock(path.stem, wait=wait) as held:
-                if not held:
-                    continue
-                pending.remove(kind)
-                if path.is_file():
-                    ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
-                    continue
-                if ctx.accelerator.is_main_process:
-                    if not clips:
-                        clips.extend(dataset[i] for i in select_split(dataset, "train"))
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    train_extractor(
-                        kind,
-                        clips,
-                        path,
-                        model_config=_extractor_config(kind, embed),
-                        train=train,
-                        provenance={"git_commit": ctx.commit},
-                    )
-                ctx.accelerator.wait_for_everyone()
-                ctx.trained[path.stem] = "trained"
-    return {kind: load_extractor(path) for kind, path in paths.items()}
+    for kind, path in paths.items():
+        with ctx.lock(path.stem, wait=wait) as held:
+            if not held:
+                continue
+            if path.is_file():
+                ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
+                continue
+            if ctx.accelerator.is_main_process:
+                if not clips:
+                    clips.extend(dataset[i] for i in select_split(dataset, "train"))
+                path.parent.mkdir(parents=True, exist_ok=True)
+                train_extractor(
+                    kind,
+                    clips,
+                    path,
+                    model_config=_extractor_config(kind, embed),
+                    train=train,
+                    provenance={"git_commit": ctx.commit},
+                )
+            ctx.accelerator.wait_for_everyone()
+            ctx.trained[path.stem] = "trained"
 
 
 def _extractor_config(kind: str, embed: int) -> Any:

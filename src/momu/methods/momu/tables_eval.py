@@ -194,7 +194,9 @@ def evaluate_music_to_motion(
     scores = Scores(metrics={})
     for sid in subsets:
         scfg = subset_config(cfg, sid)
-        _, model, dataset, data_key, folder = fit_momu(sctx, scfg, seed)
+        _, model, dataset, data_key, folder = fit_momu(
+            sctx, scfg, seed, extractors=("motion",) if quality else ()
+        )
         scores.artifacts[f"{sid} model"] = str(folder.relative_to(sctx.out_dir.parent))
         ev = model.cfg.evaluation
         truth = _truth(dataset, ev)
