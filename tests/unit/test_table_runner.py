@@ -275,7 +275,8 @@ def test_a_worker_trains_the_extractor_nobody_is_training_and_waits_only_to_scor
     give_up = threading.Timer(10.0, other_worker.close)  # a worker that waits fails the test, not hangs
     give_up.start()
     try:
-        scoring.start_extractors(ctx, ["clip"], {"name": "d"}, ev)  # before the unit trains its stages
+        # a unit starts the extractors before it trains its own stages
+        scoring.start_extractors(ctx, ["clip"], {"name": "d"}, ev, ("motion", "audio"))
         assert trained == ["audio"]  # it trained the audio extractor instead of waiting for the motion one
         motion.write_bytes(b"")  # the other worker finishes the motion extractor
         other_worker.close()

@@ -230,11 +230,7 @@ def trained_extractors(
 
 
 def start_extractors(
-    ctx: RunContext,
-    dataset: Any,
-    data_key: Mapping[str, Any],
-    cfg: Any,
-    kinds: Sequence[str] = ("motion", "audio"),
+    ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], cfg: Any, kinds: Sequence[str]
 ) -> None:
     """Train now the extractors of ``kinds`` that no other ``--jobs`` worker has or is training.
 
