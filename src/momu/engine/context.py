@@ -151,7 +151,7 @@ class RunContext:
         Yields whether the lock is held: always ``True`` when ``wait``; with ``wait=False`` it is
         ``False`` at once if another job holds the lock, so a job that needs several stages can
         train one nobody is training instead of waiting
-        (:func:`momu.methods.momu.scoring.trained_extractors`).
+        (:func:`momu.methods.momu.scoring.start_extractors`).
         """
         if self.accelerator.num_processes > 1:
             yield True

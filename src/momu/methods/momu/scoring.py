@@ -242,15 +242,26 @@ def start_extractors(
     _train_missing_extractors(ctx, dataset, cfg, _extractor_paths(ctx, data_key, cfg, kinds), wait=False)
 
 
+def _extractor_settings(cfg: Any) -> tuple[ExtractorTrainConfig, int]:
+    """The extractors' training settings and embedding width (0: the default) from the evaluation config."""
+    train = ExtractorTrainConfig(
+        epochs=int(cfg.extractor_epochs),
+        samples_per_clip=int(cfg.extractor_samples_per_clip),
+        seed=int(getattr(cfg, "extractor_seed", 0)),
+        val_fraction=0.0,
+    )
+    return train, int(getattr(cfg, "extractor_embed_dim", 0) or 0)
+
+
 def _extractor_paths(
     ctx: RunContext, data_key: Mapping[str, Any], cfg: Any, kinds: Sequence[str]
 ) -> dict[str, Path]:
-    embed = int(getattr(cfg, "extractor_embed_dim", 0) or 0)
+    train, embed = _extractor_settings(cfg)
     key = {
         "data": dict(data_key),
-        "epochs": int(cfg.extractor_epochs),
-        "samples_per_clip": int(cfg.extractor_samples_per_clip),
-        "seed": int(getattr(cfg, "extractor_seed", 0)),
+        "epochs": train.epochs,
+        "samples_per_clip": train.samples_per_clip,
+        "seed": train.seed,
         **({"embed_dim": embed} if embed else {}),
     }
     digest = stage_key_hash(key)
@@ -264,13 +275,7 @@ def _train_missing_extractors(
     those whose lock another ``--jobs`` worker holds."""
     from momu.methods.momu.data import select_split
 
-    embed = int(getattr(cfg, "extractor_embed_dim", 0) or 0)
-    train = ExtractorTrainConfig(
-        epochs=int(cfg.extractor_epochs),
-        samples_per_clip=int(cfg.extractor_samples_per_clip),
-        seed=int(getattr(cfg, "extractor_seed", 0)),
-        val_fraction=0.0,
-    )
+    train, embed = _extractor_settings(cfg)
     clips: list[Clip] = []  # the train split, built once and only if an extractor is trained
     for kind, path in paths.items():
         with ctx.lock(path.stem, wait=wait) as held:
