@@ -1,21 +1,32 @@
 """Mel → linear magnitude inversion of the ``griffin_lim`` vocoder: ``librosa`` vs ``multiplicative``.
 
 Both solve ``min ‖M x − p‖², x ≥ 0`` per frame. For the first 12 ``synth_dance`` train clips (8 s,
-MoMu's mel) this prints, per method: CPU seconds for inversion + 16 Griffin-Lim iterations, the
-relative residual ``‖M x − p‖ / ‖p‖``, and the onset F1 (±50 ms, LORIS's onset detector) of the
-vocoded audio against the original — the music F1 columns see onsets only.
+MoMu's mel) this prints, per method: CPU seconds of the inversion alone and of the whole vocoder
+(inversion + 16 Griffin-Lim iterations, ``GriffinLimVocoder.synthesize`` as momu runs it), the
+relative residual ``‖M x − p‖ / ‖p‖``, the onset F1 (±50 ms, LORIS's onset detector) of the vocoded
+audio against the original (the music F1 columns see onsets only), and whether the magnitudes are
+bit for bit those of ``librosa.util.nnls``. The first row times ``librosa.util.nnls`` itself
+(its vocoder column is momu's vocoder, the same for both ``librosa`` rows).
 
-    python benchmarks/bench_mel_inversion.py
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_mel_inversion.py
 
-Result (2026-12-02, one thread, machine shared with a training run; CPU seconds for 12 clips):
-librosa 27.7 s, residual 0.043, onset F1 1.00; multiplicative with 10 updates 3.2 s (8.7x less),
-residual 0.019, onset F1 1.00; 50 updates 8.9 s, residual 0.0055, onset F1 1.00.
+Result (2026-12-03, one thread, CPU seconds for 12 clips):
+
+    librosa.util.nnls    inversion 12.24 s                    residual 0.0433  onset F1 1.000
+    momu nnls (librosa)  inversion  0.26 s  vocoder 2.09 s    residual 0.0433  onset F1 1.000  same bits
+    multiplicative, 10   inversion  0.87 s  vocoder 3.33 s    residual 0.0190  onset F1 1.000
+    multiplicative, 50   inversion  3.90 s  vocoder 6.14 s    residual 0.0055  onset F1 1.000
+
+``librosa.util.nnls`` spends almost all of its time in SciPy's per-variable bound handling, which
+:mod:`momu.vocoders.nnls` skips (47x less CPU, the same array). Before it (2026-12-02) the
+multiplicative inversion was the fast one: 3.2 s against 27.7 s for the whole 12-clip loop.
 """
 
 from __future__ import annotations
 
 import time
 
+import librosa
 import numpy as np
 import torch
 
@@ -42,27 +53,35 @@ def main() -> None:
         SynthConfig(num_clips=60, skeleton="openpose14", min_seconds=8, max_seconds=8), split="train"
     )
     clips = [ds[i] for i in range(12)]
+    basis = mel_filterbank(mel_cfg)
+    logmels = [np.asarray(momu_mel(np.asarray(clip.audio), clip.sample_rate)) for clip in clips]
+    powers = [mel_to_power(logmel, mel_cfg) for logmel in logmels]
+    reference = [librosa.util.nnls(basis.astype(p.dtype), p) for p in powers]
     settings = {
-        "librosa": {},
-        "multiplicative, 10": {"inversion_iters": 10},
-        "multiplicative, 50": {"inversion_iters": 50},
+        "librosa.util.nnls": ("librosa", {}),
+        "momu nnls (librosa)": ("librosa", {}),
+        "multiplicative, 10": ("multiplicative", {"inversion_iters": 10}),
+        "multiplicative, 50": ("multiplicative", {"inversion_iters": 50}),
     }
-    for name, extra in settings.items():
-        method = "librosa" if name == "librosa" else "multiplicative"
+    for name, (method, extra) in settings.items():
         voc = GriffinLimVocoder(GriffinLimConfig(mel=mel_cfg, n_iter=16, mel_inversion=method, **extra))
-        basis = mel_filterbank(mel_cfg)
         start = time.process_time()
-        f1s, residuals = [], []
-        for clip in clips:
-            audio = np.asarray(clip.audio)
-            logmel = np.asarray(momu_mel(audio, clip.sample_rate))
-            power = mel_to_power(logmel, mel_cfg)
-            mag = voc.magnitude(power)
-            residuals.append(np.linalg.norm(basis @ mag**mel_cfg.power - power) / np.linalg.norm(power))
-            f1s.append(onset_f1(voc.synthesize(logmel), audio, clip.sample_rate))
+        if name == "librosa.util.nnls":
+            mags = [librosa.util.nnls(basis.astype(p.dtype), p) ** (1.0 / mel_cfg.power) for p in powers]
+        else:
+            mags = [voc.magnitude(p) for p in powers]
+        inversion = time.process_time() - start
+        start = time.process_time()
+        wavs = [voc.synthesize(logmel) for logmel in logmels]
+        vocoding = time.process_time() - start
+        residuals = [
+            np.linalg.norm(basis @ m**mel_cfg.power - p) / np.linalg.norm(p) for m, p in zip(mags, powers)
+        ]
+        f1s = [onset_f1(w, np.asarray(c.audio), c.sample_rate) for w, c in zip(wavs, clips)]
+        same = all(np.array_equal(m, r ** (1.0 / mel_cfg.power)) for m, r in zip(mags, reference))
         print(
-            f"{name:20s} cpu {time.process_time() - start:6.1f} s  residual {np.mean(residuals):.4f}  "
-            f"onset F1 {np.mean(f1s):.3f}"
+            f"{name:20s} inversion {inversion:6.2f} s  vocoder {vocoding:6.2f} s  residual "
+            f"{np.mean(residuals):.4f}  onset F1 {np.mean(f1s):.3f}  same as librosa: {same}"
         )
 
 

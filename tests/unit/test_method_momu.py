@@ -230,6 +230,27 @@ def test_crops_and_eval_lengths() -> None:
     assert eval_lengths(Ev(), 0) == lengths
 
 
+def test_split_indices_of_synth_dance_come_from_the_index_without_generating_clips() -> None:
+    from momu.data.synth import SynthDance, SynthDanceConfig
+    from momu.methods.momu.data import count_split, select_split
+
+    class Counted(SynthDance):
+        generated = 0
+
+        def __getitem__(self, index: int):  # type: ignore[no-untyped-def]
+            Counted.generated += 1
+            return super().__getitem__(index)
+
+    ds = Counted(
+        SynthDanceConfig(num_clips=12, skeleton="openpose14", min_seconds=1, max_seconds=1, styles=["techno"])
+    )
+    fast = {split: select_split(ds, split) for split in ("train", "val", "test")}
+    assert Counted.generated == 0 and count_split(ds, "test") == len(fast["test"]) > 0
+    clips = [ds[i] for i in range(len(ds))]  # the generating path: each clip's own split
+    expected = {s: [i for i, c in enumerate(clips) if c.meta["split"] == s] for s in fast}
+    assert fast == expected and sorted(sum(fast.values(), [])) == list(range(12))
+
+
 def test_beat_onset_f1_by_hand() -> None:
     assert beat_onset_f1([1.0, 2.0, 3.0], [1.02, 2.5]) == pytest.approx(2 * 0.5 * (1 / 3) / (0.5 + 1 / 3))
     assert beat_onset_f1([1.0], [1.0, 1.01]) == pytest.approx(2 * 0.5 * 1 / 1.5)  # one-to-one matching

@@ -95,6 +95,51 @@ def test_multiplicative_mel_inversion_solves_the_same_problem_better_than_its_st
     assert momu_mel(wav, SR).shape == mel.shape and np.abs(wav).max() <= 1.0
 
 
+def _mel_power(seconds: float, dtype: type) -> tuple[np.ndarray, np.ndarray]:
+    from momu.features.audio import mel_filterbank, mel_to_power
+
+    cfg = MoMuMelConfig()
+    rng = np.random.default_rng(0)
+    audio = tone(seconds=seconds) + 0.2 * tone(1500.0, seconds=seconds) * (
+        rng.random(int(SR * seconds)) > 0.5
+    )
+    power = mel_to_power(momu_mel(audio.astype(np.float32), SR), cfg).astype(dtype)
+    return mel_filterbank(cfg).astype(dtype), power
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("seconds", [0.5, 14.0])  # one column block; several (librosa's MAX_MEM_BLOCK)
+def test_fast_nnls_is_librosa_nnls_bit_for_bit(seconds: float, dtype: type) -> None:
+    import librosa
+
+    from momu.vocoders.nnls import nnls
+
+    basis, power = _mel_power(seconds, dtype)
+    expected = librosa.util.nnls(basis, power)
+    got = nnls(basis, power)
+    assert got.dtype == expected.dtype and got.shape == expected.shape
+    np.testing.assert_array_equal(got, expected)  # the same L-BFGS-B run, not a close one
+
+
+def test_fast_nnls_falls_back_to_librosa_without_scipys_routine(monkeypatch: pytest.MonkeyPatch) -> None:
+    import librosa
+
+    from momu.vocoders import nnls as fast
+
+    basis, power = _mel_power(0.3, np.float32)
+    expected = librosa.util.nnls(basis, power)
+
+    def changed_signature(*args: object) -> None:
+        raise TypeError("setulb() takes 16 positional arguments")
+
+    for routine, reason in ((None, "has no"), (changed_signature, "takes 16")):
+        monkeypatch.setattr(fast, "_setulb", lambda routine=routine: routine)
+        with pytest.warns(RuntimeWarning, match=f"{reason}.*using librosa.util.nnls"):
+            np.testing.assert_array_equal(fast.nnls(basis, power), expected)
+    with pytest.raises(ValueError, match=r"b must be \(m, N\)"):
+        fast.nnls(basis, power[0])
+
+
 def test_griffin_lim_mel_inversion_options_are_checked() -> None:
     with pytest.raises(ValueError, match="griffin_lim.mel_inversion"):
         VOCODERS.build("griffin_lim", {"mel_inversion": "pinv"})
