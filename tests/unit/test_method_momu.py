@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -249,6 +250,12 @@ def test_split_indices_of_synth_dance_come_from_the_index_without_generating_cli
     clips = [ds[i] for i in range(len(ds))]  # the generating path: each clip's own split
     expected = {s: [i for i, c in enumerate(clips) if c.meta["split"] == s] for s in fast}
     assert fast == expected and sorted(sum(fast.values(), [])) == list(range(12))
+    # split_at promises every clip carries motion, audio and text (what MoMu and MoFusion select on)
+    assert all(c.motion is not None and c.audio is not None and c.text for c in clips)
+    # a dataset without split_at is read clip by clip: no split means train, a missing modality drops it
+    assert [clips[i].meta["split"] for i in (0, 3, 2)] == ["train", "train", "test"]
+    plain = [clips[0], dataclasses.replace(clips[3], audio=None), dataclasses.replace(clips[2], meta={})]
+    assert select_split(plain, "train") == [0, 2] and select_split(plain, "test") == []
 
 
 def test_beat_onset_f1_by_hand() -> None:

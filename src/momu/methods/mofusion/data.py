@@ -24,6 +24,7 @@ from torch.utils.data import Dataset
 
 from momu.data.synth.captions import caption_window
 from momu.data.types import Clip
+from momu.data.types import split_indices as clips_of_split
 from momu.features.audio import MoFusionMelConfig, check_waveform, mofusion_mel
 from momu.features.mofusion_pose import decode_pose, encode_pose
 from momu.features.preprocess import Normalizer
@@ -33,7 +34,6 @@ from momu.io import write_json
 __all__ = [
     "MEL_CONFIG",
     "MEL_FPS",
-    "clip_split",
     "split_indices",
     "resample_motion",
     "global_positions",
@@ -52,19 +52,13 @@ MEL_CONFIG = MoFusionMelConfig()
 MEL_FPS = MEL_CONFIG.sample_rate / MEL_CONFIG.hop_length  # 31.25 frames per second
 
 
-def clip_split(clip: Clip) -> str:
-    return str(clip.meta.get("split", "train"))
-
-
 def split_indices(dataset: Any, split: str, task: str) -> list[int]:
     """Clips of ``split`` with motion and the task's condition (audio for music, text for text)."""
-    out = []
-    for i in range(len(dataset)):
-        clip = dataset[i]
-        has_cond = clip.audio is not None if task == "music" else bool(clip.text)
-        if clip.motion is not None and has_cond and clip_split(clip) == split:
-            out.append(i)
-    return out
+
+    def keep(clip: Clip) -> bool:
+        return clip.motion is not None and (clip.audio is not None if task == "music" else bool(clip.text))
+
+    return clips_of_split(dataset, split, keep)
 
 
 def resample_motion(motion: np.ndarray, src_fps: float, dst_fps: float) -> np.ndarray:

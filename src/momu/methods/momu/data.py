@@ -30,7 +30,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
-from momu.data.types import Clip
+from momu.data.types import Clip, split_indices
 from momu.encoders.bicor_vae import align_frames
 from momu.features.audio import MoMuMelConfig, check_waveform, momu_mel, resample
 from momu.features.preprocess import Normalizer
@@ -40,7 +40,6 @@ __all__ = [
     "MoMuNormalizers",
     "Rates",
     "WindowDataset",
-    "clip_split",
     "select_split",
     "eval_crops",
     "crop_clip",
@@ -93,32 +92,14 @@ class Rates:
         return latent_frames / self.latent_rate
 
 
-def clip_split(clip: Clip) -> str:
-    """The clip's split (``Clip.meta["split"]``; clips without one count as ``train``)."""
-    return str(clip.meta.get("split", "train"))
-
-
 def count_split(dataset: Sequence[Clip] | Any, split: str) -> int:
     """How many clips of ``split`` carry motion and audio (:func:`select_split`)."""
     return len(select_split(dataset, split))
 
 
 def select_split(dataset: Sequence[Clip] | Any, split: str) -> list[int]:
-    """Indices of the clips of ``split`` that carry both motion and audio.
-
-    A dataset that can tell a clip's split from its index (``split_at``; ``synth_dance``, whose clips
-    always have both) is not generated or loaded for it: generating all 640 clips of the cpu preset's
-    ``synth_dance`` took about 8 s per call, several calls per Table 7 unit.
-    """
-    split_at = getattr(dataset, "split_at", None)
-    if callable(split_at):
-        return [i for i in range(len(dataset)) if split_at(i) == split]
-    out = []
-    for i in range(len(dataset)):
-        clip = dataset[i]
-        if clip.motion is not None and clip.audio is not None and clip_split(clip) == split:
-            out.append(i)
-    return out
+    """Indices of the clips of ``split`` that carry both motion and audio."""
+    return split_indices(dataset, split, lambda clip: clip.motion is not None and clip.audio is not None)
 
 
 def _waveform(clip: Clip, sample_rate: int) -> np.ndarray:
