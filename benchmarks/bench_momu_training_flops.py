@@ -21,8 +21,9 @@ Measured 2026-12-03 on the 2-core machine (``--fused --rounds 21``): the fused s
 default on the full window, 0.94× as the table trains and 0.89× for the music VAE; AdamW's own step
 goes from 6.1 ms (the default, single-tensor on a CPU; ``foreach=True`` 6.4) to 2.4 ms. With
 ``--results``: the committed Table 7 run's CPU seconds fill 84 % of its two jobs' wall time (one worker
-waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) the
-first 8 units of a from-scratch rerun filled about 92 %.
+waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) a
+complete from-scratch rerun at 297ec16, on a slower machine, filled 92 % (97 % counting the CPU
+seconds outside ``provenance.timings`` that ``time`` reports).
 """
 
 from __future__ import annotations
