@@ -119,6 +119,7 @@ def test_fast_nnls_is_librosa_nnls_bit_for_bit(seconds: float, dtype: type) -> N
     got = nnls(basis, power)
     assert got.dtype == expected.dtype and got.shape == expected.shape
     np.testing.assert_array_equal(got, expected)  # the same L-BFGS-B run, not a close one
+    assert got.tobytes() == expected.tobytes()  # down to the sign of every zero
 
 
 def test_fast_nnls_falls_back_to_librosa_without_scipys_routine(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -22,6 +22,7 @@ import functools
 import warnings
 from typing import Any
 
+import librosa
 import numpy as np
 
 __all__ = ["nnls"]
@@ -54,10 +55,8 @@ def _objective(
 
 def _lbfgsb_nonnegative(setulb: Any, a: np.ndarray, b: np.ndarray, x_init: np.ndarray) -> np.ndarray:
     """L-BFGS-B for ``X ≥ 0`` from ``x_init``, as ``scipy.optimize.fmin_l_bfgs_b`` runs it."""
-    shape = x_init.shape
-    x = np.clip(np.asarray(x_init).ravel(), np.zeros(x_init.size), np.full(x_init.size, np.inf))
-    x = np.array(x, dtype=np.float64)
-    n, m = x.size, a.shape[1]
+    shape, n, m = x_init.shape, x_init.size, a.shape[1]
+    x = np.clip(x_init.ravel(), np.zeros(n), np.full(n, np.inf))  # float64, as SciPy clips x0
     factr = _FACTR * np.finfo(float).eps / np.finfo(float).eps  # fmin_l_bfgs_b's ftol round trip
     nbd = np.ones(n, np.int32)  # a lower bound (0) on every variable, no upper bound
     low_bnd, upper_bnd = np.zeros(n, np.float64), np.zeros(n, np.float64)
@@ -113,8 +112,6 @@ def _fast(setulb: Any, a: np.ndarray, b: np.ndarray, n_columns: int) -> np.ndarr
 def nnls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``librosa.util.nnls(a, b)`` for a 2-D ``b`` (``(m, N)``): the same array, without SciPy's
     per-variable bound handling. ``a``: ``(m, d)`` basis; returns ``(d, N)``, non-negative."""
-    import librosa
-
     if b.ndim != 2:
         raise ValueError(f"nnls: b must be (m, N), got shape {b.shape}")
     setulb = _setulb()
