@@ -12,9 +12,12 @@ With ``--bf16`` it also times every step under a CPU bf16 autocast (what ``mixed
 trains with), in rounds that alternate with the fp32 steps so a shared machine slows both alike, and
 prints the median bf16 / fp32 ratio of the step times with the bf16 matmul peak beside it.
 With ``--fused`` it times the steps with ``AdamW(fused=True)`` (``train.fused_optimizer``) against
-the default AdamW the same way.
+PyTorch's CPU default AdamW (the single-tensor loop) the same way, and with ``--foreach`` momu's
+default, ``AdamW(foreach=True)`` (bit for bit the single-tensor result on a CPU), against it. The
+steps are the θ_a + θ_m diffusion step of row #7 (DiT) on the full window and as the table trains
+it, the music VAE step, and row #4's 1D U-Net diffusion step as the table trains it.
 
-    python benchmarks/bench_momu_training_flops.py [--bf16] [--fused] \\
+    python benchmarks/bench_momu_training_flops.py [--bf16] [--fused] [--foreach] \\
         [--results outputs/reproduce/momu_table7/results.json]
 
 Measured 2026-12-03 on the 2-core machine (``--fused --rounds 21``): the fused step is 0.97× the
@@ -33,6 +36,7 @@ import json
 import statistics
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import torch
 from perf_common import matmul_peak, step_flops_and_time, time_train_steps  # benchmarks/perf_common.py
@@ -49,23 +53,21 @@ def main() -> None:
     parser.add_argument("--results", type=Path, default=None, help="a table's results.json (stage profile)")
     parser.add_argument("--bf16", action="store_true", help="also time each step under a CPU bf16 autocast")
     parser.add_argument("--fused", action="store_true", help="also time each step with AdamW(fused=True)")
-    parser.add_argument("--rounds", type=int, default=5, help="alternating rounds (with --bf16 / --fused)")
+    parser.add_argument("--foreach", action="store_true", help="also time each step with AdamW(foreach=True)")
+    parser.add_argument(
+        "--rounds", type=int, default=5, help="alternating rounds (--bf16 / --fused / --foreach)"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(0)
     spec = table7_spec()
-    m = resolve_row_configs(spec, parse_table_args(spec, ["--preset", "cpu", "--rows", "#7"]))["#7"].method
+    configs = resolve_row_configs(spec, parse_table_args(spec, ["--preset", "cpu", "--rows", "#4,#7"]))
+    m = configs["#7"].method
     peak = matmul_peak()
     print(f"matmul peak (fp32, 512², one thread): {peak / 1e9:.1f} GFLOP/s")
     d = int(m.encoder.motion.latent_channels)
     frames = 62  # 4 s at 15.6 Hz latents
-    stage = DiffusionStage(
-        build_component(backbone_node(m.music_backbone, d), "backbones"),
-        build_component(backbone_node(m.motion_backbone, d), "backbones"),
-        build_component(m.diffusion_loss, "losses", scheduler=build_component(m.scheduler, "schedulers")),
-        d,
-        min_frames=None,
-    ).train()
+    stage = diffusion_stage(m, None)
     batch = int(m.train_diffusion.batch_size)
     data = {"z_music": torch.randn(batch, frames, d), "z_motion": torch.randn(batch, frames, d)}
     steps: list[tuple[str, torch.nn.Module, Callable[[], torch.Tensor]]] = [
@@ -83,15 +85,10 @@ def main() -> None:
     rows = [(name, *step_flops_and_time(module, step)) for name, module, step in steps]
     # As the table trains it: one random length per batch between train_min_seconds and the window.
     min_frames = round(frames * float(m.train_min_seconds) / float(m.window_seconds))
-    as_trained = DiffusionStage(
-        stage.music_backbone,
-        stage.motion_backbone,
-        stage.loss,
-        d,
-        min_frames,
-        per_batch=m.train_lengths == "batch",
-    ).train()
+    as_trained = diffusion_stage(m, min_frames)
     steps.append((f"diffusion, {min_frames}-{frames} frames", as_trained, lambda: as_trained(data)[0]))
+    unet = diffusion_stage(configs["#4"].method, min_frames)  # row #4: the 1D U-Net denoisers
+    steps.append((f"#4 U-Net, {min_frames}-{frames} fr.", unet, lambda: unet(data)[0]))
     for name, flops, seconds in rows:
         achieved = flops / seconds
         print(
@@ -104,11 +101,15 @@ def main() -> None:
         for name, module, step in steps:
             ratio = step_ratio(module, step, args.rounds, bf16=True)
             print(f"{name:24s} bf16 autocast step / fp32 step = {ratio:.2f} (median of {args.rounds} rounds)")
-    if args.fused:
-        print()
-        for name, module, step in steps:
-            ratio = step_ratio(module, step, args.rounds, fused=True)
-            print(f"{name:24s} fused-AdamW step / AdamW step = {ratio:.2f} (median of {args.rounds} rounds)")
+    for variant in ("fused", "foreach"):
+        if getattr(args, variant):
+            print()
+            for name, module, step in steps:
+                ratio = step_ratio(module, step, args.rounds, optimizer=variant)
+                print(
+                    f"{name:24s} {variant}-AdamW step / single-tensor AdamW step = {ratio:.2f} "
+                    f"(median of {args.rounds} rounds)"
+                )
     if args.results is not None:
         prov = json.loads(args.results.read_text())["provenance"]
         total = sum(v["cpu_s"] for v in prov.get("timings", {}).values()) or 1.0
@@ -125,22 +126,40 @@ def main() -> None:
         )
 
 
+def diffusion_stage(method: Any, min_frames: int | None) -> DiffusionStage:
+    """Row ``method``'s θ_a + θ_m training module (``min_frames``: variable lengths as the table trains)."""
+    d = int(method.encoder.motion.latent_channels)
+    return DiffusionStage(
+        build_component(backbone_node(method.music_backbone, d), "backbones"),
+        build_component(backbone_node(method.motion_backbone, d), "backbones"),
+        build_component(
+            method.diffusion_loss, "losses", scheduler=build_component(method.scheduler, "schedulers")
+        ),
+        d,
+        min_frames,
+        per_batch=min_frames is not None and method.train_lengths == "batch",
+    ).train()
+
+
 def step_ratio(
     module: torch.nn.Module,
     step: Callable[[], torch.Tensor],
     rounds: int,
     *,
     bf16: bool = False,
-    fused: bool = False,
+    optimizer: str = "single",
 ) -> float:
-    """Median over ``rounds`` of (variant step time) / (fp32 step with the default AdamW), back to back.
+    """Median over ``rounds`` of (variant step time) / (fp32 step with the single-tensor AdamW),
+    back to back.
 
-    The variant runs ``step`` under a CPU bf16 autocast (``bf16``) and/or steps ``AdamW(fused=True)``
-    (``fused``).
+    The variant runs ``step`` under a CPU bf16 autocast (``bf16``) and/or steps AdamW with
+    ``optimizer`` = ``fused`` (``fused=True``) or ``foreach`` (``foreach=True``).
     """
     params = [p for p in module.parameters() if p.requires_grad]
-    plain = torch.optim.AdamW(params, lr=1e-4)
-    variant_opt = torch.optim.AdamW(params, lr=1e-4, fused=True) if fused else plain
+    plain = torch.optim.AdamW(params, lr=1e-4, foreach=False)
+    variant_opt = plain
+    if optimizer != "single":
+        variant_opt = torch.optim.AdamW(params, lr=1e-4, **{optimizer: True})
 
     def variant_step() -> torch.Tensor:
         with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):

@@ -115,7 +115,8 @@ def test_bad_row_fails_before_training(tmp_path: Path) -> None:
 
 
 def test_parallel_jobs_give_the_same_numbers_as_one_process(tmp_path: Path) -> None:
-    flags = ("--rows", "#7", "--seeds", "0", "1")
+    # three units on two workers: one worker evaluates two units in one process
+    flags = ("--rows", "#7", "--seeds", "0", "1", "2")
     parallel = subprocess.run(
         [sys.executable, str(ROOT / "recipes" / "momu_table7.py"), "--preset", "smoke", "--out",
          str(tmp_path / "jobs"), "--tracker", "none", "--jobs", "2", *flags],
@@ -129,4 +130,5 @@ def test_parallel_jobs_give_the_same_numbers_as_one_process(tmp_path: Path) -> N
     assert {p.name for p in (tmp_path / "jobs" / "momu_table7" / "logs").iterdir()} == {
         "7-seed0.log",
         "7-seed1.log",
+        "7-seed2.log",
     }

@@ -187,3 +187,26 @@ def test_map_gathered_returns_each_item_once_in_order(tmp_path: Path) -> None:
     acc = _accelerator(tmp_path)
     out = map_gathered(acc, list(range(10, 17)), lambda batch: [i * 2 for i in batch], batch_size=3)
     assert out == [i * 2 for i in range(10, 17)]
+
+
+def test_run_context_remembers_derived_values_per_key_and_forgets_the_oldest(tmp_path: Path) -> None:
+    from momu.engine.context import REMEMBERED, RunContext
+
+    ctx = RunContext(
+        accelerator=make_accelerator(RunConfig(tracker="none"), tmp_path, "t", {}), out_dir=tmp_path
+    )
+    builds: list[int] = []
+
+    def build(k: int) -> list[int]:
+        builds.append(k)
+        return [k]
+
+    first = ctx.remember({"split": "train", "k": 0}, lambda: build(0))
+    assert ctx.remember({"k": 0, "split": "train"}, lambda: build(0)) is first  # key order does not matter
+    assert builds == [0]
+    for k in range(1, REMEMBERED + 1):  # REMEMBERED newer keys push key 0 out
+        ctx.remember({"split": "train", "k": k}, lambda k=k: build(k))
+    ctx.remember({"split": "train", "k": REMEMBERED}, lambda: build(-1))  # still there
+    assert builds == list(range(REMEMBERED + 1))
+    assert ctx.remember({"split": "train", "k": 0}, lambda: build(0)) == [0]
+    assert builds == [*range(REMEMBERED + 1), 0]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,10 +184,11 @@ def test_cells_print_mean_and_interval_over_seeds(tmp_path: Path) -> None:
 
 
 def test_worker_arguments_drop_the_parent_only_flags() -> None:
-    from momu.engine.table_units import Unit, _worker_argv
+    from momu.engine.table_units import Unit
+    from momu.engine.table_workers import worker_argv
 
     argv = ["--preset", "cpu", "--jobs", "2", "--seeds", "0", "1,2", "seed=3", "--rows=#7", "--threads", "1"]
-    assert _worker_argv(argv) == ["--preset", "cpu", "seed=3"]
+    assert worker_argv(argv) == ["--preset", "cpu", "seed=3"]
     assert Unit.parse("#7:2") == Unit("#7", 2) and Unit("Tc=0.5T", 0).token == "Tc=0.5T:0"
     with pytest.raises(ValueError, match="ROW:SEED"):
         Unit.parse("#7")
@@ -210,28 +213,82 @@ def test_resume_reuses_finished_units_without_evaluating_them(tmp_path: Path) ->
     assert calls == [0]  # without --resume the unit is evaluated again (its stages are reused)
 
 
+_FAKE_WORKER = """
+import os, sys
+while line := sys.stdin.readline():
+    token, log = line.rstrip("\\n").split("\\t")
+    with open(log, "w") as f:
+        f.write(f"pid {os.getpid()}\\n")
+    if token == "#2:0":
+        sys.exit(3)  # dies without reporting
+    status = 1 if token == "#1:1" else 0
+    print(f"{token}\\t{status}", flush=True)
+    if status:
+        sys.exit(status)
+"""
+
+
 def test_workers_start_after_librosa_kernels_are_cached(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Workers started together must find numba's cache filled (numba/numba#10128 crashes otherwise)."""
-    from momu.engine import table_units
-    from momu.engine.table_units import Unit, run_units_in_workers
+    from momu.engine import table_workers
+    from momu.engine.table_units import Unit
+    from momu.engine.table_workers import run_units_in_workers
 
     events: list[str] = []
-    monkeypatch.setattr(table_units, "warm_librosa_kernels", lambda: events.append("warm"))
-    real_popen = table_units.subprocess.Popen
+    monkeypatch.setattr(table_workers, "warm_librosa_kernels", lambda: events.append("warm"))
+    real_popen = table_workers.subprocess.Popen
 
     def popen(*args: object, **kwargs: object) -> object:
         events.append("worker")
         return real_popen(*args, **kwargs)  # type: ignore[call-overload]
 
-    monkeypatch.setattr(table_units.subprocess, "Popen", popen)
-    script = tmp_path / "unit.py"
-    script.write_text("import sys\nsys.exit(0)\n")
-    units = [Unit("#1", 0), Unit("#1", 1)]
+    monkeypatch.setattr(table_workers.subprocess, "Popen", popen)
+    script = tmp_path / "worker.py"
+    script.write_text(_FAKE_WORKER)
+    units = [Unit("#1", 0), Unit("#3", 0)]
     failed = run_units_in_workers(str(script), [], units, jobs=2, threads=1, logs=tmp_path / "logs", name="t")
     assert failed == []
     assert events == ["warm", "worker", "worker"]
+
+
+def test_workers_run_several_units_each_and_failures_end_only_their_worker(tmp_path: Path) -> None:
+    from momu.engine.table_units import Unit
+    from momu.engine.table_workers import run_units_in_workers
+
+    script = tmp_path / "worker.py"
+    script.write_text(_FAKE_WORKER)
+    units = [Unit("#1", 0), Unit("#1", 1), Unit("#2", 0), Unit("#3", 0), Unit("#3", 1), Unit("#3", 2)]
+    logs = tmp_path / "logs"
+    failed = run_units_in_workers(str(script), [], units, jobs=2, threads=1, logs=logs, name="t")
+    assert sorted(failed, key=str) == sorted([Unit("#1", 1), Unit("#2", 0)], key=str)
+    pids = {(logs / f"{u.row[1:]}-seed{u.seed}.log").read_text() for u in units}  # every unit ran
+    # at most 2 workers + one replacement per failure: some worker ran several units
+    assert len(pids) <= 4 < len(units)
+
+
+def test_a_worker_sends_each_units_output_to_its_log_and_stops_at_a_failure(tmp_path: Path) -> None:
+    script = tmp_path / "serve.py"
+    script.write_text(
+        "import sys\n"
+        "from momu.engine.table_workers import serve_units\n"
+        "def run(unit):\n"
+        "    print('stdout of', unit.token)\n"
+        "    sys.stderr.write(f'stderr of {unit.token}\\n')\n"
+        "    if unit.seed == 1:\n"
+        "        raise RuntimeError('broken unit')\n"
+        "sys.exit(serve_units(run, {'#7'}))\n"
+    )
+    feed = "".join(f"#7:{k}\t{tmp_path / f'u{k}.log'}\n" for k in range(3))
+    proc = subprocess.run(
+        [sys.executable, str(script)], input=feed, capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == 1
+    assert proc.stdout == "#7:0\t0\n#7:1\t1\n"  # reports only; unit #7:2 never ran
+    assert (tmp_path / "u0.log").read_text() == "stdout of #7:0\nstderr of #7:0\n"
+    assert "RuntimeError: broken unit" in (tmp_path / "u1.log").read_text()
+    assert not (tmp_path / "u2.log").exists()
 
 
 def test_warming_fills_numba_cache_with_the_beat_kernels() -> None:

@@ -22,11 +22,12 @@ import hashlib
 import json
 import logging
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import torch
 from accelerate import Accelerator
@@ -48,6 +49,12 @@ from momu.weights_io import write_safetensors
 __all__ = ["RunContext", "stage_key_hash", "run_facts", "stage_identity"]
 
 log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+REMEMBERED = 4
+"""How many values :meth:`RunContext.remember` keeps (the least recently used go first): a MoMu
+unit needs three, its training clips with their normalisers and two evaluation sets."""
 
 
 def stage_key_hash(key: Mapping[str, Any]) -> str:
@@ -100,6 +107,7 @@ class RunContext:
     trained: dict[str, str] = field(default_factory=dict)  # stage folder -> "trained" | "reused[, ...]"
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
     parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
+    derived: OrderedDict[str, Any] = field(default_factory=OrderedDict, repr=False)  # see remember()
 
     @contextmanager
     def timed(self, category: str) -> Iterator[None]:
@@ -112,6 +120,25 @@ class RunContext:
             rec["wall_s"] += time.perf_counter() - wall
             rec["cpu_s"] += time.process_time() - cpu
             rec["calls"] += 1
+
+    def remember(self, key: Any, build: Callable[[], T]) -> T:
+        """``build()``, computed once for ``key`` by this process and then handed out again.
+
+        For what every unit of a table derives the same way from its config, such as a dataset
+        split's clips and the normalisers fitted on them: a single-process table or a ``--jobs``
+        worker then builds them once instead of once per unit. ``key`` (JSON-able) must hold
+        everything the value depends on. The caller must not modify what it gets back: the next
+        unit gets the same objects. The last :data:`REMEMBERED` values are kept.
+        """
+        text = json.dumps(key, sort_keys=True, default=str)
+        if text in self.derived:
+            self.derived.move_to_end(text)
+        else:
+            self.derived[text] = build()
+            while len(self.derived) > REMEMBERED:
+                self.derived.popitem(last=False)
+        value: T = self.derived[text]
+        return value
 
     @functools.cached_property
     def commit(self) -> str:

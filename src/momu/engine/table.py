@@ -47,8 +47,8 @@ from momu.engine.table_units import (
     evaluate_unit,
     format_duration,
     merge_timings,
-    run_units_in_workers,
 )
+from momu.engine.table_workers import run_units_in_workers, serve_units
 from momu.engine.trainer import Preempted
 from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, UsageParser, fail
 from momu.io import atomic_write_text, write_json
@@ -120,7 +120,7 @@ class TableArgs:
     overrides: list[str]
     jobs: int = 1
     threads: int | None = None
-    unit: str | None = None
+    worker: bool = False
 
 
 EvaluateFn = Callable[[RunContext, DictConfig, int], "Scores | dict[str, float]"]
@@ -228,7 +228,7 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         default=None,
         help="torch threads per process (default: 1 with --jobs > 1, else torch's default); recorded",
     )
-    parser.add_argument("--unit", default=None, help=argparse.SUPPRESS)  # a --jobs worker: ROW:SEED
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)  # a --jobs worker
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for every row")
     ns = parser.parse_intermixed_args(argv)  # overrides may sit before or after the flags
     seeds, overrides = _split_seeds(parser, ns.seeds or [])
@@ -243,7 +243,7 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         overrides=[*overrides, *ns.overrides],
         jobs=ns.jobs,
         threads=ns.threads,
-        unit=ns.unit,
+        worker=ns.worker,
     )
 
 
@@ -381,19 +381,6 @@ def _units(spec: TableSpec, configs: Mapping[str, DictConfig], seeds: Sequence[i
     return [Unit(row.id, seed) for row in spec.rows if row.id in configs for seed in seeds]
 
 
-def _worker_unit(args: TableArgs, configs: Mapping[str, DictConfig]) -> Unit | None:
-    """The unit a ``--jobs`` worker evaluates (``--unit ROW:SEED``), or ``None`` in the parent."""
-    if not args.unit:
-        return None
-    try:
-        unit = Unit.parse(args.unit)
-    except ValueError as exc:
-        raise ConfigError(str(exc)) from None
-    if unit.row not in configs:
-        raise ConfigError(f"--unit: unknown row {unit.row}")
-    return unit
-
-
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
@@ -401,9 +388,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     try:  # everything is checked before any folder, tracker or model is made
         _check_parallel(args, argv)
         configs = resolve_row_configs(spec, args)
-        worker = _worker_unit(args, configs)
         check_outputs(args.out, spec.name)
-        if worker is None:
+        if not args.worker:
             check_datasets(configs, spec.check)
     except ConfigError as exc:
         return fail(spec.name, exc)
@@ -411,12 +397,12 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     if threads is not None:  # configure_threads (make_accelerator) sets torch and BLAS to this
         os.environ["MOMU_NUM_THREADS"] = str(threads)
     first = next(iter(configs.values()))
-    seeds = [worker.seed] if worker is not None else _seeds(spec, args, first)
+    seeds = _seeds(spec, args, first)
     out = args.out / spec.name
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
     run_cfg = RunConfig(
-        tracker="none" if worker is not None else args.tracker,
+        tracker="none" if args.worker else args.tracker,
         project="momu",
         seed=seeds[0],
         mixed_precision=str(first.get("mixed_precision", "no")),
@@ -425,15 +411,12 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     ctx = RunContext(
         accelerator=accelerator, out_dir=out, resume=args.resume, parts_root=shared_parts_root(spec, args.out)
     )
-    if worker is not None:  # one unit of a --jobs run: evaluate it into its cell and stop
-        try:
-            evaluate_unit(spec.evaluate, ctx, configs[worker.row], worker, reuse=args.resume)
-        except Preempted as exc:
-            sys.stderr.write(f"{spec.name}: {exc}\n")
-            finish_accelerator(accelerator)
-            return EXIT_PREEMPTED
+    if args.worker:  # a --jobs worker: each unit the parent sends, evaluated into its cell
+        status = serve_units(
+            lambda u: evaluate_unit(spec.evaluate, ctx, configs[u.row], u, reuse=args.resume), configs
+        )
         finish_accelerator(accelerator)
-        return 0
+        return status
     units = _units(spec, configs, seeds)
     reuse = args.resume
     if args.jobs > 1:

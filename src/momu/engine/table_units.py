@@ -6,8 +6,9 @@ returned, plus the stages it trained or reused and its timings) is written to
 and the seed, so a cell is never reused for another configuration.
 
 ``--jobs N`` runs the units of a single-process table in ``N`` worker processes (one thread each by
-default), each a fresh ``python <recipe> --unit ROW:SEED`` with the same arguments; the workers
-share the output folder, and stages two units share are trained once (the stage lock of
+default; :mod:`momu.engine.table_workers`), each a long-lived ``python <recipe> --worker`` with the
+same arguments that the parent sends one unit at a time; the workers share the output folder, and
+stages two units share are trained once (the stage lock of
 :meth:`momu.engine.context.RunContext.lock`, the second unit waits and reuses). Units are ordered
 seed by seed within a row, so units running at the same time rarely wait on each other. The parent
 then assembles the table from the cells. Every unit runs with the same thread count whatever
@@ -20,12 +21,8 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
 import re
-import subprocess
-import sys
-import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,7 +34,6 @@ from momu.engine.context import RunContext
 from momu.engine.scores import Scores, as_scores
 from momu.engine.trainer import without_later_defaults
 from momu.io import write_json
-from momu.metrics._audio import warm_librosa_kernels
 
 __all__ = [
     "Unit",
@@ -45,7 +41,6 @@ __all__ = [
     "cell_path",
     "save_cell",
     "load_cell",
-    "run_units_in_workers",
     "format_duration",
 ]
 
@@ -117,90 +112,6 @@ def format_duration(seconds: float) -> str:
     minutes, sec = divmod(int(round(seconds)), 60)
     hours, minutes = divmod(minutes, 60)
     return f"{hours} h {minutes:02d} min" if hours else f"{minutes} min {sec:02d} s"
-
-
-_WORKER_FLAGS = ("--jobs", "--unit", "--rows", "--seeds", "--threads")
-"""Flags a worker does not inherit from the parent (it gets its own unit and thread count)."""
-
-
-def _worker_argv(argv: Sequence[str]) -> list[str]:
-    """The recipe's arguments without :data:`_WORKER_FLAGS` and their values."""
-    out: list[str] = []
-    tokens = list(argv)
-    i = 0
-    while i < len(tokens):
-        tok = tokens[i]
-        if tok.split("=", 1)[0] in _WORKER_FLAGS:
-            i += 1
-            if "=" not in tok:  # the flag's values follow it
-                i += 1
-                while tok == "--seeds" and i < len(tokens) and re.fullmatch(r"[0-9,]+", tokens[i]):
-                    i += 1
-            continue
-        out.append(tok)
-        i += 1
-    return out
-
-
-def _worker_env(threads: int) -> dict[str, str]:
-    env = dict(os.environ)
-    env["OMP_NUM_THREADS"] = str(threads)
-    env["MOMU_NUM_THREADS"] = str(threads)
-    env["MKL_NUM_THREADS"] = str(threads)
-    return env
-
-
-def run_units_in_workers(
-    script: str,
-    argv: Sequence[str],
-    units: Sequence[Unit],
-    jobs: int,
-    threads: int,
-    logs: Path,
-    name: str,
-) -> list[Unit]:
-    """Run ``units`` as ``python script ... --unit ROW:SEED`` in at most ``jobs`` processes at a time.
-
-    Returns the units that failed (each worker's output is in ``logs/<unit>.log``). Progress (units
-    done, elapsed, ETA) is logged as units finish.
-    """
-    logs.mkdir(parents=True, exist_ok=True)
-    warm_librosa_kernels()  # workers started together must not fill numba's cache together
-    base = [sys.executable, script, *_worker_argv(argv), "--threads", str(threads)]
-    pending = list(units)
-    running: list[tuple[Unit, subprocess.Popen[bytes], Any]] = []
-    failed: list[Unit] = []
-    start, done = time.time(), 0
-    env = _worker_env(threads)
-    while pending or running:
-        while pending and len(running) < jobs:
-            unit = pending.pop(0)
-            handle = open(logs / f"{cell_name(unit)}.log", "wb")  # closed when the worker ends
-            cmd = [*base, "--unit", unit.token]
-            running.append(
-                (unit, subprocess.Popen(cmd, stdout=handle, stderr=subprocess.STDOUT, env=env), handle)
-            )
-        time.sleep(0.5)
-        for item in list(running):
-            unit, proc, handle = item
-            if proc.poll() is None:
-                continue
-            running.remove(item)
-            handle.close()
-            done += 1
-            if proc.returncode != 0:
-                failed.append(unit)
-                log.error(
-                    "%s: row %s seed %d failed (exit %d); see %s",
-                    name, unit.row, unit.seed, proc.returncode, logs / f"{cell_name(unit)}.log",
-                )  # fmt: skip
-            elapsed = time.time() - start
-            eta = elapsed / done * (len(units) - done)
-            log.info(
-                "%s: row %s seed %d done (%d/%d units, %s elapsed, ETA %s)",
-                name, unit.row, unit.seed, done, len(units), format_duration(elapsed), format_duration(eta),
-            )  # fmt: skip
-    return failed
 
 
 def evaluate_unit(

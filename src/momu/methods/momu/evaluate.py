@@ -33,6 +33,7 @@ repeat the floor).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Sequence
 from pathlib import Path
@@ -144,25 +145,44 @@ def _shuffled(truth: list[Clip]) -> list[Clip]:
     ]
 
 
-def _floors(extractors: dict[str, Any], dataset: Any, ev: Any, truth: list[Clip]) -> dict[str, float]:
-    """This seed's real-vs-real FAD and FID: ``reference_split`` crops against the evaluation clips."""
-    others = eval_crops(dataset, ev.reference_split, len(truth), [c.duration for c in truth])
-    if len(others) < len(truth):
-        raise ValueError(
-            f"method.evaluation: {len(others)} '{ev.reference_split}' clips for {len(truth)} evaluation "
-            "clips; the real-vs-real floor needs as many (raise dataset.num_clips)"
-        )
-    return {
-        "music_fad": fad(extractors["audio"], others, truth),
-        "motion_fid": fid(extractors["motion"], others, truth),
-    }
+def _truth(ctx: RunContext, dataset: Any, data_key: Any, ev: Any, lengths: list[float]) -> list[Clip]:
+    """The ground-truth evaluation clips cut to ``lengths`` (built once per process for them)."""
+    return ctx.remember(
+        ("momu eval crops", data_key, ev.split, int(ev.num_clips), lengths),
+        lambda: eval_crops(dataset, ev.split, ev.num_clips, lengths),
+    )
+
+
+def _floors(
+    ctx: RunContext, extractors: dict[str, Any], dataset: Any, data_key: Any, ev: Any, truth: list[Clip]
+) -> dict[str, float]:
+    """The real-vs-real FAD and FID: ``reference_split`` crops against the evaluation clips.
+
+    They depend on the data, the evaluation settings (extractors included) and the clips' lengths,
+    not on the row or its seed, so a process computes them once for those.
+    """
+
+    def compute() -> dict[str, float]:
+        others = eval_crops(dataset, ev.reference_split, len(truth), [c.duration for c in truth])
+        if len(others) < len(truth):
+            raise ValueError(
+                f"method.evaluation: {len(others)} '{ev.reference_split}' clips for {len(truth)} "
+                "evaluation clips; the real-vs-real floor needs as many (raise dataset.num_clips)"
+            )
+        return {
+            "music_fad": fad(extractors["audio"], others, truth),
+            "motion_fid": fid(extractors["motion"], others, truth),
+        }
+
+    clips = [(c.id, c.duration) for c in truth]
+    return dict(ctx.remember(("momu floors", data_key, dataclasses.asdict(ev), clips), compute))
 
 
 def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     """One Table 7 / Table 10 row for one seed: train (or reuse) its stages, generate, score."""
     method, model, dataset, data_key, folder = fit_momu(ctx, cfg, seed, extractors=("motion", "audio"))
     ev = method.cfg.evaluation
-    truth = eval_crops(dataset, ev.split, ev.num_clips, eval_lengths(ev, seed))
+    truth = _truth(ctx, dataset, data_key, ev, eval_lengths(ev, seed))
     if len(truth) < 2:
         raise ValueError(
             f"method.evaluation: the '{ev.split}' split has {len(truth)} clip; the table needs 2 or more"
@@ -184,7 +204,7 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         gen_motion = generate_motion(ctx, model, truth, seed, ev.batch_size, other=ev.shuffled_condition)
         music, motion = gen_music[ROW], gen_motion[ROW]
     with ctx.timed("metrics"):
-        floors = _floors(extractors, dataset, ev, truth)
+        floors = _floors(ctx, extractors, dataset, data_key, ev, truth)
         scores.metrics["music_fad"] = fad(extractors["audio"], music, truth)
         scores.metrics["motion_fid"] = fid(extractors["motion"], motion, truth)
         for key, floor in floors.items():
@@ -241,12 +261,12 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sco
     data_key = to_container(cfg.dataset)
     dataset = build_component(cfg.dataset, "datasets")
     ev = method.cfg.evaluation
-    truth = eval_crops(dataset, ev.split, ev.num_clips, [float(ev.seconds)])
+    truth = _truth(ctx, dataset, data_key, ev, [float(ev.seconds)] * int(ev.num_clips))
     with ctx.timed("extractors"):
         extractors = trained_extractors(ctx, dataset, data_key, ev)
     shuffled = _shuffled(truth)
     bins = float(ev.beat_bin_seconds)
-    floors = _floors(extractors, dataset, ev, truth)
+    floors = _floors(ctx, extractors, dataset, data_key, ev, truth)
     gt, shuf = Scores(metrics=dict(floors)), Scores(metrics=dict(floors))
     with ctx.timed("metrics"):
         add_beat_scores(gt, "music", {ROW: beat_components("music", truth, truth, bins)})

@@ -160,11 +160,16 @@ class MoMu:
     def fit(self, ctx: RunContext, dataset: Any, data_key: Mapping[str, Any], seed: int) -> MoMuModel:
         """Train (or reuse) the three stages on the dataset's ``train`` split; returns the model."""
         c = self.cfg
-        train_idx = select_split(dataset, "train")
-        if not train_idx:
-            raise ValueError("the dataset has no 'train' clips with motion and audio")
-        train_clips = [dataset[i] for i in train_idx]
-        norms = MoMuNormalizers.fit(train_clips, c.sample_rate)
+
+        def clips_and_norms() -> tuple[list[Any], MoMuNormalizers]:
+            train_idx = select_split(dataset, "train")
+            if not train_idx:
+                raise ValueError("the dataset has no 'train' clips with motion and audio")
+            clips = [dataset[i] for i in train_idx]
+            return clips, MoMuNormalizers.fit(clips, c.sample_rate)
+
+        # every row and seed of a table trains on the same clips: built once per process
+        train_clips, norms = ctx.remember(("momu train clips", data_key, c.sample_rate), clips_and_norms)
         torch.manual_seed(seed)  # initial weights are part of the stage (the key holds the seed)
         vae = self.build_encoder()
         rates = self.rates(vae)

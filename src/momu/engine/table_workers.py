@@ -1,0 +1,227 @@
+"""``--jobs N``: a table's (row, seed) units in ``N`` long-lived worker processes.
+
+The parent (:func:`run_units_in_workers`) starts at most ``N`` workers, each
+``python <recipe> <the parent's arguments> --threads T --worker`` (one thread each by default), and
+hands every worker one unit at a time: it writes ``ROW:SEED<TAB>LOG`` to the worker's stdin and
+reads ``ROW:SEED<TAB>STATUS`` back from its stdout when the unit's cell is written. A worker
+(:func:`serve_units`) evaluates the units it is sent in order, in one process, the way a table
+without ``--jobs`` evaluates all of its units, with everything the unit prints sent to
+``LOG`` (``<out>/<table>/logs/<row>-seed<k>.log``). So a worker pays its start (importing torch,
+librosa, diffusers; about 8 CPU-s) once instead of once per unit, and the numbers are those of a
+single process (``test_parallel_jobs_give_the_same_numbers_as_one_process``).
+
+A unit that fails ends its worker (the traceback is in the unit's log, the status is the exit
+status it would have had as a process: 1, or 143 when pre-empted); a worker that dies fails the
+unit it held. Either way the parent starts a fresh worker for the units still waiting and reports
+the failed units at the end.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import selectors
+import subprocess
+import sys
+import time
+import traceback
+from collections.abc import Callable, Container, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+from momu.engine.table_units import Unit, cell_name, format_duration
+from momu.engine.trainer import Preempted
+from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS
+from momu.metrics._audio import warm_librosa_kernels
+
+__all__ = ["run_units_in_workers", "serve_units", "worker_argv"]
+
+log = logging.getLogger(__name__)
+
+_WORKER_FLAGS = ("--jobs", "--rows", "--seeds", "--threads")
+"""Flags a worker does not inherit from the parent (it is sent its units and gets its thread count)."""
+
+
+def worker_argv(argv: Sequence[str]) -> list[str]:
+    """The recipe's arguments without :data:`_WORKER_FLAGS` and their values."""
+    out: list[str] = []
+    tokens = list(argv)
+    i = 0
+    while i < len(tokens):
+        tok = tokens[i]
+        if tok.split("=", 1)[0] in _WORKER_FLAGS:
+            i += 1
+            if "=" not in tok:  # the flag's values follow it
+                i += 1
+                while tok == "--seeds" and i < len(tokens) and re.fullmatch(r"[0-9,]+", tokens[i]):
+                    i += 1
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
+def _worker_env(threads: int) -> dict[str, str]:
+    env = dict(os.environ)
+    for key in ("OMP_NUM_THREADS", "MOMU_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[key] = str(threads)
+    return env
+
+
+@dataclass
+class _Worker:
+    proc: subprocess.Popen[bytes]
+    unit: Unit | None = None
+
+    def send(self, unit: Unit, logs: Path) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(f"{unit.token}\t{logs / (cell_name(unit) + '.log')}\n".encode())
+        self.proc.stdin.flush()
+        self.unit = unit
+
+    def close(self) -> int:
+        """Let the worker finish (end of its input) and wait for it; returns its exit status."""
+        if self.proc.stdin is not None and not self.proc.stdin.closed:
+            try:
+                self.proc.stdin.close()
+            except BrokenPipeError:  # it has already gone
+                pass
+        return self.proc.wait()
+
+
+def _status(line: bytes, unit: Unit) -> int | None:
+    """The exit status in a worker's report line for ``unit`` (``None``: not such a report)."""
+    token, _, status = line.decode(errors="replace").rstrip("\n").partition("\t")
+    if token != unit.token or not status.lstrip("-").isdigit():
+        return None
+    return int(status)
+
+
+def run_units_in_workers(
+    script: str,
+    argv: Sequence[str],
+    units: Sequence[Unit],
+    jobs: int,
+    threads: int,
+    logs: Path,
+    name: str,
+) -> list[Unit]:
+    """Evaluate ``units`` in at most ``jobs`` worker processes running ``python script ... --worker``.
+
+    Returns the units that failed (each unit's output is in ``logs/<unit>.log``). Progress (units
+    done, elapsed, ETA) is logged as units finish.
+    """
+    logs.mkdir(parents=True, exist_ok=True)
+    warm_librosa_kernels()  # workers started together must not fill numba's cache together
+    cmd = [sys.executable, script, *worker_argv(argv), "--threads", str(threads), "--worker"]
+    env = _worker_env(threads)
+    pending, failed = list(units), []
+    workers: list[_Worker] = []
+    start, done = time.time(), 0
+    with selectors.DefaultSelector() as selector:
+        try:
+            while pending or workers:
+                for worker in [w for w in workers if w.unit is None]:
+                    if pending:
+                        worker.send(pending.pop(0), logs)
+                    else:  # nothing left for it
+                        selector.unregister(_stdout(worker))
+                        workers.remove(worker)
+                        worker.close()
+                while pending and len(workers) < jobs:
+                    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+                    workers.append(_Worker(proc))
+                    selector.register(_stdout(workers[-1]), selectors.EVENT_READ, workers[-1])
+                    workers[-1].send(pending.pop(0), logs)
+                for key, _ in selector.select(timeout=1.0):
+                    worker = key.data
+                    unit = worker.unit
+                    assert unit is not None
+                    line = _stdout(worker).readline()
+                    status = _status(line, unit)
+                    if line and status is None:  # not a report (nothing else should write there)
+                        log.warning("%s: unexpected output of a worker: %r", name, line[:200])
+                        continue
+                    worker.unit = None
+                    if status != 0:  # the worker has ended (no line: it died) or is ending
+                        selector.unregister(_stdout(worker))
+                        workers.remove(worker)
+                        code = worker.close()
+                        status = status if status is not None else (code or EXIT_PROBLEMS)
+                    done += 1
+                    if status != 0:
+                        failed.append(unit)
+                        log.error(
+                            "%s: row %s seed %d failed (exit %d); see %s",
+                            name, unit.row, unit.seed, status, logs / f"{cell_name(unit)}.log",
+                        )  # fmt: skip
+                    elapsed = time.time() - start
+                    log.info(
+                        "%s: row %s seed %d done (%d/%d units, %s elapsed, ETA %s)",
+                        name, unit.row, unit.seed, done, len(units), format_duration(elapsed),
+                        format_duration(elapsed / done * (len(units) - done)),
+                    )  # fmt: skip
+        finally:  # an interrupted parent leaves no worker behind
+            for worker in workers:
+                if worker.proc.poll() is None:
+                    worker.proc.kill()
+                worker.proc.wait()
+    return failed
+
+
+def _stdout(worker: _Worker) -> IO[bytes]:
+    assert worker.proc.stdout is not None
+    return worker.proc.stdout
+
+
+def serve_units(run_unit: Callable[[Unit], object], rows: Container[str]) -> int:
+    """A ``--jobs`` worker: run each unit the parent sends on stdin, its output in the unit's log.
+
+    Reports ``ROW:SEED<TAB>STATUS`` on the original stdout after each unit; stops at the end of the
+    input (status 0) or after the first unit that fails (that unit's status).
+    """
+    report = os.fdopen(os.dup(1), "w", buffering=1)  # the parent's pipe, line by line
+    home = os.dup(2)  # the parent's stderr: output between units
+    _send_output_to(home)  # a stray print never lands in the status pipe
+    try:
+        while line := sys.stdin.readline():
+            token, _, log_path = line.rstrip("\n").partition("\t")
+            status = _run_unit_logged(run_unit, token, rows, Path(log_path), home)
+            report.write(f"{token}\t{status}\n")
+            if status != 0:
+                return status
+        return 0
+    finally:
+        report.close()
+        os.close(home)
+
+
+def _run_unit_logged(
+    run_unit: Callable[[Unit], object], token: str, rows: Container[str], log_path: Path, home: int
+) -> int:
+    with open(log_path, "wb") as log_file:
+        _send_output_to(log_file.fileno())
+        try:
+            unit = Unit.parse(token)
+            if unit.row not in rows:
+                raise ValueError(f"--worker: unknown row {unit.row}")
+            run_unit(unit)
+            return 0
+        except Preempted as exc:
+            sys.stderr.write(f"{exc}\n")
+            return EXIT_PREEMPTED
+        except Exception:
+            traceback.print_exc()
+            return EXIT_PROBLEMS
+        finally:
+            _send_output_to(home)
+
+
+def _send_output_to(fd: int) -> None:
+    """Point this process's stdout and stderr (file descriptors 1 and 2) at ``fd``."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
