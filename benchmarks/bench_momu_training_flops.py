@@ -12,8 +12,8 @@ With ``--bf16`` it also times every step under a CPU bf16 autocast (what ``mixed
 trains with), in rounds that alternate with the fp32 steps so a shared machine slows both alike, and
 prints the median bf16 / fp32 ratio of the step times with the bf16 matmul peak beside it.
 With ``--fused`` it times the steps with ``AdamW(fused=True)`` (``train.fused_optimizer``) against
-PyTorch's CPU default AdamW (the single-tensor loop) the same way, and with ``--foreach`` momu's
-default, ``AdamW(foreach=True)`` (bit for bit the single-tensor result on a CPU), against it. The
+PyTorch's CPU default AdamW (the single-tensor loop) the same way, and with ``--foreach``
+``AdamW(foreach=True)`` (bit for bit the single-tensor result on a CPU) against it. The
 steps are the θ_a + θ_m diffusion step of row #7 (DiT) on the full window and as the table trains
 it, the music VAE step, and row #4's 1D U-Net diffusion step as the table trains it.
 
@@ -22,7 +22,9 @@ it, the music VAE step, and row #4's 1D U-Net diffusion step as the table trains
 
 Measured 2026-12-03 on the 2-core machine (``--fused --rounds 21``): the fused step is 0.97× the
 default on the full window, 0.94× as the table trains and 0.89× for the music VAE; AdamW's own step
-goes from 6.1 ms (the default, single-tensor on a CPU; ``foreach=True`` 6.4) to 2.4 ms. With
+goes from 6.1 ms (the default, single-tensor on a CPU; ``foreach=True`` 6.4) to 2.4 ms.
+``--foreach --rounds 15`` (2026-12-03, a second 2-core machine): 0.98× on the full window, 1.00× as
+the table trains, 0.97× for the music VAE and 1.00× for row #4's U-Net: no gain. With
 ``--results``: the committed Table 7 run's CPU seconds fill 84 % of its two jobs' wall time (one worker
 waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) a
 complete from-scratch rerun at 297ec16, on a slower machine, filled 92 % (97 % counting the CPU

@@ -12,11 +12,7 @@ not to change the numbers beyond a tolerance:
   compiles every denoising backbone inside a stage module *in place* (``nn.Module.compile``), so
   parameter names, ``state_dict`` keys and checkpoints are unchanged.
 * ``train.fused_optimizer`` — AdamW with ``fused=True`` where the device has fused kernels for
-  every parameter's dtype, otherwise the default; :func:`make_adamw`. The default is AdamW's
-  ``foreach`` implementation on every device: on a CUDA device that is PyTorch's own default, and
-  on a CPU it applies the same per-tensor kernels as PyTorch's single-tensor default, so the
-  weights are bit for bit the same, without its Python loop over parameters (a cpu-preset 1D
-  U-Net diffusion step with 434 parameter tensors takes about 0.86x the time).
+  every parameter's dtype, otherwise the default (foreach) implementation; :func:`make_adamw`.
 * ``train.pin_memory`` / ``train.persistent_workers`` — :func:`loader_options`: page-locked batches
   only when the run is on CUDA (pinning does nothing useful for a CPU run), workers kept alive
   across epochs only when there are workers.
@@ -137,15 +133,14 @@ def fused_supported(params: Iterable[torch.Tensor]) -> bool:
 
 
 def make_adamw(params: list[nn.Parameter], cfg: TrainConfig) -> torch.optim.AdamW:
-    """The stage's AdamW: fused kernels when ``cfg.fused_optimizer`` and the device has them, else
-    the ``foreach`` implementation (on a CPU bit for bit PyTorch's single-tensor default, faster;
-    ``test_default_adamw_is_bit_for_bit_the_single_tensor_adamw``)."""
+    """The stage's AdamW; fused kernels when ``cfg.fused_optimizer`` and the device has them."""
     kwargs: dict[str, Any] = {"lr": cfg.lr, "betas": (cfg.beta1, cfg.beta2), "weight_decay": cfg.weight_decay}
-    if cfg.fused_optimizer and fused_supported(params):
-        return torch.optim.AdamW(params, fused=True, **kwargs)
     if cfg.fused_optimizer:
-        log.warning("train.fused_optimizer: no fused AdamW for these parameters; using the default")
-    return torch.optim.AdamW(params, foreach=True, **kwargs)
+        if fused_supported(params):
+            kwargs["fused"] = True
+        else:
+            log.warning("train.fused_optimizer: no fused AdamW for these parameters; using the default")
+    return torch.optim.AdamW(params, **kwargs)
 
 
 def loader_options(cfg: TrainConfig, device: torch.device) -> dict[str, Any]:

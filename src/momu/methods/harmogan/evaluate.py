@@ -82,13 +82,15 @@ CALIBRATION_ROWS: Mapping[str, str] = {
 
 
 def shared_context(ctx: RunContext) -> RunContext:
-    """A context whose stages live in ``<out>/harmogan_shared`` (provenance and timings shared)."""
+    """A context whose stages live in ``<out>/harmogan_shared`` (provenance, timings and remembered
+    values shared)."""
     return RunContext(
         accelerator=ctx.accelerator,
         out_dir=ctx.out_dir.parent / SHARED_DIR,
         resume=ctx.resume,
         trained=ctx.trained,
         timings=ctx.timings,
+        derived=ctx.derived,
     )
 
 

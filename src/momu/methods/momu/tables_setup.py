@@ -280,11 +280,13 @@ def check_subsets(cfg: DictConfig, subsets: Sequence[str], *, need_audio: bool =
 
 
 def shared_context(ctx: RunContext) -> RunContext:
-    """A context whose stages live in ``<out>/momu_shared`` (shared by Tables 2–6; provenance shared too)."""
+    """A context whose stages live in ``<out>/momu_shared`` (shared by Tables 2–6; provenance and
+    remembered values shared too)."""
     return RunContext(
         accelerator=ctx.accelerator,
         out_dir=ctx.out_dir.parent / SHARED_DIR,
         resume=ctx.resume,
         trained=ctx.trained,
         timings=ctx.timings,
+        derived=ctx.derived,
     )
