@@ -222,6 +222,8 @@ while line := sys.stdin.readline():
     if token == "#2:0":
         sys.exit(3)  # dies without reporting
     status = 1 if token == "#1:1" else 0
+    if token == "#3:0":  # stray output, sent in one piece with the report
+        sys.stdout.write("not a report\\n")
     print(f"{token}\\t{status}", flush=True)
     if status:
         sys.exit(status)
@@ -253,7 +255,9 @@ def test_workers_start_after_librosa_kernels_are_cached(
     assert events == ["warm", "worker", "worker"]
 
 
-def test_workers_run_several_units_each_and_failures_end_only_their_worker(tmp_path: Path) -> None:
+def test_workers_run_several_units_each_and_failures_end_only_their_worker(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     from momu.engine.table_units import Unit
     from momu.engine.table_workers import run_units_in_workers
 
@@ -266,6 +270,7 @@ def test_workers_run_several_units_each_and_failures_end_only_their_worker(tmp_p
     pids = {(logs / f"{u.row[1:]}-seed{u.seed}.log").read_text() for u in units}  # every unit ran
     # at most 2 workers + one replacement per failure: some worker ran several units
     assert len(pids) <= 4 < len(units)
+    assert "unexpected output of a worker: b'not a report'" in caplog.text
 
 
 def test_a_worker_sends_each_units_output_to_its_log_and_stops_at_a_failure(tmp_path: Path) -> None:

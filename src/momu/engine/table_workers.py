@@ -74,6 +74,19 @@ def _worker_env(threads: int) -> dict[str, str]:
 class _Worker:
     proc: subprocess.Popen[bytes]
     unit: Unit | None = None
+    unread: bytes = b""  # the start of a line not yet complete
+
+    def read_lines(self) -> list[bytes] | None:
+        """The complete lines the worker has written since the last call (``None``: it has ended).
+
+        Reads the pipe itself rather than through a buffered reader, so a line already read into a
+        buffer never waits for the selector to report the pipe readable again.
+        """
+        chunk = os.read(_stdout(self).fileno(), 1 << 16)
+        if not chunk:
+            return None
+        *lines, self.unread = (self.unread + chunk).split(b"\n")
+        return lines
 
     def send(self, unit: Unit, logs: Path) -> None:
         assert self.proc.stdin is not None
@@ -91,12 +104,14 @@ class _Worker:
         return self.proc.wait()
 
 
-def _status(line: bytes, unit: Unit) -> int | None:
-    """The exit status in a worker's report line for ``unit`` (``None``: not such a report)."""
-    token, _, status = line.decode(errors="replace").rstrip("\n").partition("\t")
-    if token != unit.token or not status.lstrip("-").isdigit():
-        return None
-    return int(status)
+def _status(lines: list[bytes] | None, unit: Unit, name: str) -> int | None:
+    """The exit status a worker reported for ``unit`` in ``lines`` (``None``: no report yet)."""
+    for line in lines or []:
+        token, _, status = line.decode(errors="replace").partition("\t")
+        if token == unit.token and status.lstrip("-").isdigit():
+            return int(status)
+        log.warning("%s: unexpected output of a worker: %r", name, line[:200])
+    return None
 
 
 def run_units_in_workers(
@@ -139,13 +154,12 @@ def run_units_in_workers(
                     worker = key.data
                     unit = worker.unit
                     assert unit is not None
-                    line = _stdout(worker).readline()
-                    status = _status(line, unit)
-                    if line and status is None:  # not a report (nothing else should write there)
-                        log.warning("%s: unexpected output of a worker: %r", name, line[:200])
+                    lines = worker.read_lines()
+                    status = _status(lines, unit, name)
+                    if lines is not None and status is None:  # the unit is still running
                         continue
                     worker.unit = None
-                    if status != 0:  # the worker has ended (no line: it died) or is ending
+                    if status != 0:  # the worker has ended (lines is None: it died) or is ending
                         selector.unregister(_stdout(worker))
                         workers.remove(worker)
                         code = worker.close()
