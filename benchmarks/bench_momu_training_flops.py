@@ -13,18 +13,24 @@ trains with), in rounds that alternate with the fp32 steps so a shared machine s
 prints the median bf16 / fp32 ratio of the step times with the bf16 matmul peak beside it.
 With ``--fused`` it times the steps with ``AdamW(fused=True)`` (``train.fused_optimizer``) against
 PyTorch's CPU default AdamW (the single-tensor loop) the same way, and with ``--foreach``
-``AdamW(foreach=True)`` (bit for bit the single-tensor result on a CPU) against it. The
+``AdamW(foreach=True)`` (bit for bit the single-tensor result on a CPU) against it, and with
+``--every-parameter`` the several-process form of ``momu.engine.every_parameter`` (``loss + 0 · Σ
+params``) against the one-process form a single process trains with (bit for bit the same). The
 steps are the θ_a + θ_m diffusion step of row #7 (DiT) on the full window and as the table trains
 it, the music VAE step, and row #4's 1D U-Net diffusion step as the table trains it.
 
-    python benchmarks/bench_momu_training_flops.py [--bf16] [--fused] [--foreach] \\
+    python benchmarks/bench_momu_training_flops.py [--bf16] [--fused] [--foreach] [--every-parameter] \\
+        [--rounds N | --pairs N] \\
         [--results outputs/reproduce/momu_table7/results.json]
 
 Measured 2026-12-03 on the 2-core machine (``--fused --rounds 21``): the fused step is 0.97× the
 default on the full window, 0.94× as the table trains and 0.89× for the music VAE; AdamW's own step
 goes from 6.1 ms (the default, single-tensor on a CPU; ``foreach=True`` 6.4) to 2.4 ms.
 ``--foreach --rounds 15`` (2026-12-03, a second 2-core machine): 0.98× on the full window, 1.00× as
-the table trains, 0.97× for the music VAE and 1.00× for row #4's U-Net: no gain. With
+the table trains, 0.97× for the music VAE and 1.00× for row #4's U-Net: no gain.
+``--every-parameter --pairs 150`` (2026-12-03, a third 2-core machine): 0.99× on the full window,
+0.98× as the table trains and 0.96× for row #4's U-Net; the music VAE step, which the option does
+not touch, measured 0.99× (the noise of the method). With
 ``--results``: the committed Table 7 run's CPU seconds fill 84 % of its two jobs' wall time (one worker
 waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) a
 complete from-scratch rerun at 297ec16, on a slower machine, filled 92 % (97 % counting the CPU
@@ -44,6 +50,7 @@ import torch
 from perf_common import matmul_peak, step_flops_and_time, time_train_steps  # benchmarks/perf_common.py
 
 from momu.config import build_component
+from momu.engine import every_parameter
 from momu.engine.table import parse_table_args, resolve_row_configs
 from momu.methods.momu.config import backbone_node
 from momu.methods.momu.recipes import table7_spec
@@ -57,7 +64,18 @@ def main() -> None:
     parser.add_argument("--fused", action="store_true", help="also time each step with AdamW(fused=True)")
     parser.add_argument("--foreach", action="store_true", help="also time each step with AdamW(foreach=True)")
     parser.add_argument(
-        "--rounds", type=int, default=5, help="alternating rounds (--bf16 / --fused / --foreach)"
+        "--every-parameter",
+        action="store_true",
+        help="also time each step with loss + 0 · Σ params (with_every_parameter on several processes)",
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        default=5,
+        help="alternating rounds of the variants",
+    )
+    parser.add_argument(
+        "--pairs", type=int, default=0, help="time N interleaved pairs of single steps instead of rounds"
     )
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -97,21 +115,24 @@ def main() -> None:
             f"{name:24s} {flops / 1e9:7.2f} GFLOP/step  {seconds * 1e3:7.1f} ms/step  "
             f"{achieved / 1e9:6.1f} GFLOP/s  = {100 * achieved / peak:5.1f} % of the matmul peak"
         )
+    how = f"({args.pairs} pairs of steps)" if args.pairs else f"(median of {args.rounds} rounds)"
     if args.bf16:
         bf16_peak = matmul_peak(dtype=torch.bfloat16)
         print(f"\nmatmul peak (bf16, 512², one thread): {bf16_peak / 1e9:.1f} GFLOP/s")
         for name, module, step in steps:
-            ratio = step_ratio(module, step, args.rounds, bf16=True)
-            print(f"{name:24s} bf16 autocast step / fp32 step = {ratio:.2f} (median of {args.rounds} rounds)")
+            ratio = step_ratio(module, step, args.rounds, pairs=args.pairs, bf16=True)
+            print(f"{name:24s} bf16 autocast step / fp32 step = {ratio:.2f} {how}")
     for variant in ("fused", "foreach"):
         if getattr(args, variant):
             print()
             for name, module, step in steps:
-                ratio = step_ratio(module, step, args.rounds, optimizer=variant)
-                print(
-                    f"{name:24s} {variant}-AdamW step / single-tensor AdamW step = {ratio:.2f} "
-                    f"(median of {args.rounds} rounds)"
-                )
+                ratio = step_ratio(module, step, args.rounds, pairs=args.pairs, optimizer=variant)
+                print(f"{name:24s} {variant}-AdamW step / single-tensor AdamW step = {ratio:.2f} {how}")
+    if args.every_parameter:
+        print()
+        for name, module, step in steps:
+            ratio = 1.0 / step_ratio(module, step, args.rounds, pairs=args.pairs, zero_term=True)
+            print(f"{name:24s} one-process step / loss + 0 · Σ params step = {ratio:.2f} {how}")
     if args.results is not None:
         prov = json.loads(args.results.read_text())["provenance"]
         total = sum(v["cpu_s"] for v in prov.get("timings", {}).values()) or 1.0
@@ -148,14 +169,21 @@ def step_ratio(
     step: Callable[[], torch.Tensor],
     rounds: int,
     *,
+    pairs: int = 0,
     bf16: bool = False,
     optimizer: str = "single",
+    zero_term: bool = False,
 ) -> float:
     """Median over ``rounds`` of (variant step time) / (fp32 step with the single-tensor AdamW),
     back to back.
 
     The variant runs ``step`` under a CPU bf16 autocast (``bf16``) and/or steps AdamW with
-    ``optimizer`` = ``fused`` (``fused=True``) or ``foreach`` (``foreach=True``).
+    ``optimizer`` = ``fused`` (``fused=True``) or ``foreach`` (``foreach=True``), and/or gives every
+    parameter its gradient through ``loss + 0 · Σ params`` as on several processes (``zero_term``)
+    instead of the one-process callback. Both sides of a round draw the same random lengths.
+    With ``pairs`` it times that many pairs of single steps instead, the two in alternating order,
+    and returns the ratio of the summed times: finer interleaving, for effects of a few percent on
+    a machine whose speed drifts.
     """
     params = [p for p in module.parameters() if p.requires_grad]
     plain = torch.optim.AdamW(params, lr=1e-4, foreach=False)
@@ -164,12 +192,28 @@ def step_ratio(
         variant_opt = torch.optim.AdamW(params, lr=1e-4, **{optimizer: True})
 
     def variant_step() -> torch.Tensor:
-        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
-            return step()
+        several = every_parameter._several_processes
+        every_parameter._several_processes = lambda: zero_term or several()  # type: ignore[assignment]
+        try:
+            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+                return step()
+        finally:
+            every_parameter._several_processes = several  # type: ignore[assignment]
 
+    if pairs:  # one step each, in alternating order, the same random draws within a pair
+        seconds = {False: 0.0, True: 0.0}
+        for k in range(pairs):
+            for variant in (False, True) if k % 2 else (True, False):
+                torch.manual_seed(k)
+                seconds[variant] += time_train_steps(
+                    variant_step if variant else step, variant_opt if variant else plain, 1, warmup=0
+                )
+        return seconds[True] / seconds[False]
     ratios = []
-    for _ in range(rounds):
+    for k in range(rounds):
+        torch.manual_seed(k)
         fp32 = time_train_steps(step, plain, 5)
+        torch.manual_seed(k)
         ratios.append(time_train_steps(variant_step, variant_opt, 5) / fp32)
     return statistics.median(ratios)
 

@@ -7,8 +7,9 @@ from typing import Any
 import torch
 from torch import Tensor, nn
 
+from momu.engine.every_parameter import with_every_parameter
 from momu.losses.scheduled_kinematic import ScheduledKinematicLoss
-from momu.methods.momu.stages import _with_every_parameter, stage_step
+from momu.methods.momu.stages import stage_step
 
 __all__ = ["MoFusionStage", "encode_text", "stage_step"]
 
@@ -41,4 +42,4 @@ class MoFusionStage(nn.Module):
         else:
             cond, cond_mask = batch["cond"], None
         total, logs = self.loss(self.backbone, x, cond, x_mask=batch.get("x_mask"), cond_mask=cond_mask)
-        return _with_every_parameter(self, total), logs
+        return with_every_parameter(self, total), logs

@@ -36,6 +36,7 @@ from torch.func import functional_call
 
 from momu.encoders.bicor_vae import BiCoRVAE, stage2_loss
 from momu.encoders.vae import SequenceVAE
+from momu.engine.every_parameter import with_every_parameter
 from momu.losses.diffusion import DiffusionLoss
 
 __all__ = ["MusicVAEStage", "MotionVAEStage", "DiffusionStage", "stage_step", "train_music_vae_stage"]
@@ -45,18 +46,6 @@ def stage_step(model: nn.Module, batch: Any) -> tuple[torch.Tensor, dict[str, fl
     """The engine's ``loss_fn`` for every MoMu stage: the stage module computes its own loss."""
     loss, logs = model(batch)
     return loss, logs
-
-
-def _with_every_parameter(module: nn.Module, loss: torch.Tensor) -> torch.Tensor:
-    """``loss + 0 · Σ params``: every trainable parameter joins the graph with a zero gradient.
-
-    Under DistributedDataParallel (several processes) every parameter must receive a gradient each
-    step; a backbone's learned null condition is unused in a batch where no condition was dropped,
-    and a plugin part may have parameters a step does not use. The zero term changes no value and
-    no gradient.
-    """
-    extra = [p.sum() for p in module.parameters() if p.requires_grad]
-    return loss + 0.0 * torch.stack(extra).sum() if extra else loss
 
 
 def _music_input(vae: SequenceVAE, batch: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -104,7 +93,7 @@ class MusicVAEStage(nn.Module):
                 generator_weight=float(weight.detach()),
                 discriminator=float(d_loss.detach()),
             )
-        return _with_every_parameter(self, total), logs
+        return with_every_parameter(self, total), logs
 
 
 class MotionVAEStage(nn.Module):
@@ -123,12 +112,12 @@ class MotionVAEStage(nn.Module):
         if self.contrastive is not None:
             terms = stage2_loss(self.vae, motion, music, vae_loss=self.vae_loss, contrastive=self.contrastive)
             logs = {k: float(v.detach()) for k, v in terms.items() if k != "loss"}
-            return _with_every_parameter(self, terms["loss"]), logs
+            return with_every_parameter(self, terms["loss"]), logs
         with torch.no_grad():
             length = self.vae.encode_music(music).shape[1]
         out = self.vae.motion_vae(self.vae.align_motion(motion, length))
         terms = self.vae_loss(out.reconstruction, out.target, out.posterior, time_dim=1)  # (B, T, ...)
-        return _with_every_parameter(self, terms["loss"]), {
+        return with_every_parameter(self, terms["loss"]), {
             "reconstruction": float(terms["reconstruction"].detach()),
             "kl": float(terms["kl"].detach()),
         }
@@ -208,7 +197,7 @@ class DiffusionStage(nn.Module):
         loss_m = self.loss(
             self.motion_backbone, z_m, z_a, x_mask=mask, cond_mask=mask
         ).loss  # θ_m: music → motion
-        return _with_every_parameter(self, loss_a + loss_m), {
+        return with_every_parameter(self, loss_a + loss_m), {
             "motion2music": loss_a.detach(),
             "music2motion": loss_m.detach(),
         }
