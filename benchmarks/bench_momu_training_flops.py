@@ -30,7 +30,9 @@ goes from 6.1 ms (the default, single-tensor on a CPU; ``foreach=True`` 6.4) to 
 the table trains, 0.97× for the music VAE and 1.00× for row #4's U-Net: no gain.
 ``--every-parameter --pairs 150`` (2026-12-03, a third 2-core machine): 0.99× on the full window,
 0.98× as the table trains and 0.96× for row #4's U-Net; the music VAE step, which the option does
-not touch, measured 0.99× (the noise of the method). With
+not touch, measured 0.99× (the noise of the method). ``--bf16 --pairs 100`` (2026-12-03, 2-core AMD
+EPYC with AVX512-BF16, bf16 matmul peak 219 against 92 GFLOP/s fp32): 0.72× on the full window,
+0.77× as the table trains, 0.97× for the music VAE and 1.18× for row #4's U-Net. With
 ``--results``: the committed Table 7 run's CPU seconds fill 84 % of its two jobs' wall time (one worker
 waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) a
 complete from-scratch rerun at 297ec16, on a slower machine, filled 92 % (97 % counting the CPU
