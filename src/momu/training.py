@@ -38,7 +38,9 @@ __all__ = ["RECIPES", "TrainResult", "train_config", "train_method", "detect_dat
 log = logging.getLogger(__name__)
 
 RECIPES: dict[str, str] = {"momu": "momu.methods.momu.recipes"}
-"""Method name → module with ``BASE_CONFIG`` (a YAML path) and ``PRESETS`` (name → overrides)."""
+"""Method name → module with ``BASE_CONFIG`` (a YAML path) and ``PRESETS`` (name → overrides), and
+optionally ``PRESET_CONFIGS`` (name → a complete YAML used instead of ``BASE_CONFIG``, as the tables
+use it: MoMu's ``paper`` preset pins every paper value and inherits nothing from the cpu YAML)."""
 
 
 @dataclass(frozen=True)
@@ -89,7 +91,8 @@ def train_config(
         data_overrides = [f"dataset={name}", f"dataset.root={root.resolve()}"]
     elif dataset is not None:
         raise ConfigError("--dataset names a loader for --data DIR; with --data synth it is synth_dance")
-    return load_config(recipe.BASE_CONFIG, [*recipe.PRESETS[preset], *data_overrides, *overrides])
+    base = getattr(recipe, "PRESET_CONFIGS", {}).get(preset, recipe.BASE_CONFIG)
+    return load_config(base, [*recipe.PRESETS[preset], *data_overrides, *overrides])
 
 
 def _motion_shape(ds: Any) -> tuple[int, int]:

@@ -30,6 +30,17 @@ def test_paper_preset_is_its_own_file_with_nothing_inherited() -> None:
     assert row7 == load_config(paper_config(), [])  # row #7 has no overrides: the file as written
 
 
+def test_momu_train_paper_preset_is_the_tables_paper_file() -> None:
+    from momu.training import train_config
+
+    paper = train_config("momu", preset="paper")
+    assert paper == load_config(paper_config(), [])  # not the cpu YAML (once `paper: []` over it)
+    assert paper.method == _rows(table7_spec(), "paper")["#7"].method
+    assert train_config("momu", preset="cpu").method.motion_backbone.hidden != paper.method.motion_backbone.hidden
+    override = train_config("momu", preset="paper", overrides=["method.train_diffusion.steps=7"])
+    assert override.method.train_diffusion.steps == 7
+
+
 def test_paper_preset_values() -> None:
     paper = _rows(table7_spec(), "paper")
     m = paper["#7"].method

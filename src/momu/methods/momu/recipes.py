@@ -28,7 +28,7 @@ from pathlib import Path
 from momu.engine.table import Column, Row, TableSpec
 from momu.methods.momu.evaluate import calibrate_momu, check_rows, evaluate_momu
 
-__all__ = ["BASE_CONFIG", "PRESETS", "COLUMNS", "table7_spec", "table10_spec"]
+__all__ = ["BASE_CONFIG", "PRESETS", "PRESET_CONFIGS", "COLUMNS", "table7_spec", "table10_spec"]
 
 SHARED_DIR = "momu_shared"
 """Folder under ``--out`` whose ``parts/`` caches the stages every MoMu table trains (Tables 2–7, 10)."""
@@ -88,6 +88,9 @@ PRESETS: dict[str, list[str]] = {
     # the paper preset is its own complete file (paper_config()): every value pinned, nothing inherited
     "paper": [],
 }
+
+PRESET_CONFIGS: dict[str, Path] = {"paper": paper_config()}
+"""Presets that are complete files of their own (``momu train --preset paper`` as the tables)."""
 
 COLUMNS = [
     Column("music_fad", "Music FAD↓", False),
