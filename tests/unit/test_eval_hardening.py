@@ -15,6 +15,7 @@ from tests.unit.test_metrics_beats_audio import SR, clicks, swing
 
 from momu.cli import eval_inputs, generate_cmd
 from momu.data import ballroom, common
+from momu.export.npz import write_motion_npz
 from momu.registry import METRICS
 
 
@@ -171,3 +172,28 @@ def test_eval_out_is_checked_before_any_work(tmp_path: Path, capsys: pytest.Capt
     (tmp_path / "afile").write_text("x")
     assert run_eval(gen, gt, "bas", "--fps", "30", "--out", str(tmp_path / "afile" / "s.json")) == 2
     assert "afile is a file" in capsys.readouterr().err
+
+
+def _npz_pair_dirs(tmp_path: Path, gen_fps: float) -> tuple[Path, Path]:
+    """A generated ``clip0.npz`` as ``momu generate`` writes it, beside a reference ``.npy`` + music."""
+    gen, gt = tmp_path / "gen", tmp_path / "gt"
+    gen.mkdir()
+    gt.mkdir()
+    motion = np.tile(swing(30.0, 5.0), (1, 7, 1)).astype(np.float32)  # (T, 21, 3): the dwm21 layout
+    write_motion_npz(gen / "clip0.npz", motion, gen_fps, "dwm21")
+    np.save(gt / "clip0.npy", motion)
+    sf.write(gt / "clip0.wav", clicks([1.0, 2.0, 3.0, 4.0], 5.0), SR)
+    return gen, gt
+
+
+def test_momu_generate_npz_files_are_evaluated_with_their_own_fps(tmp_path: Path) -> None:
+    gen, gt = _npz_pair_dirs(tmp_path, 30.0)
+    out = tmp_path / "s.json"
+    assert run_eval(gen, gt, "hit_rate", "--fps", "30", "--out", str(out)) == 0
+    assert json.loads(out.read_text())["scores"]["hit_rate"] == 1.0  # the same motion as the reference
+
+
+def test_an_npz_frame_rate_mismatch_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    gen, gt = _npz_pair_dirs(tmp_path, 60.0)  # the npz's own fps wins over --fps
+    assert run_eval(gen, gt, "hit_rate", "--fps", "30") == 2
+    assert "clip0.npz: 60 fps but its reference" in capsys.readouterr().err

@@ -36,7 +36,8 @@ def test_momu_train_paper_preset_is_the_tables_paper_file() -> None:
     paper = train_config("momu", preset="paper")
     assert paper == load_config(paper_config(), [])  # not the cpu YAML (once `paper: []` over it)
     assert paper.method == _rows(table7_spec(), "paper")["#7"].method
-    assert train_config("momu", preset="cpu").method.motion_backbone.hidden != paper.method.motion_backbone.hidden
+    cpu = train_config("momu", preset="cpu")
+    assert cpu.method.motion_backbone.hidden != paper.method.motion_backbone.hidden
     override = train_config("momu", preset="paper", overrides=["method.train_diffusion.steps=7"])
     assert override.method.train_diffusion.steps == 7
 

@@ -1,15 +1,16 @@
 """``momu eval --gen DIR --gt DIR --metrics m1,m2 [--fps F] [--out FILE.json]``.
 
-Evaluates a folder of generated motions (``.npy``, ``(T, J, D)``) and/or music (``.wav``/``.flac``/
-``.ogg``/``.opus``/``.mp3``) against a folder of references, pairing files by stem (``a.npy`` ↔
-``a.npy``, ``a.wav`` ↔ ``a.wav``). A generated item that lacks a modality takes it from its reference
-— the conditioning input: generated dances (``.npy`` only) are scored against the reference music,
-generated music (``.wav`` only) against the reference motion. A metric never scores a filled-in
-modality (``beat_scores`` of motion-only folders is an error, not F1 = 1); generated and reference
-motion must share a skeleton and a frame rate (a ``<stem>.json`` beside a motion may give its
-``fps`` and ``skeleton``). Any registered metric runs by name, plugins included; ``--set
-NAME.KEY=VALUE`` sets a metric parameter. Prints a table; ``--out`` writes JSON with the scores,
-each metric's provenance (source, config, specification), its warnings and its errors.
+Evaluates a folder of generated motions (``.npy``, ``(T, J, D)``, or the ``.npz`` that ``momu
+generate`` writes) and/or music (``.wav``/``.flac``/``.ogg``/``.opus``/``.mp3``) against a folder of
+references, pairing files by stem (``a.npy`` ↔ ``a.npy``, ``a.wav`` ↔ ``a.wav``). A generated item
+that lacks a modality takes it from its reference — the conditioning input: generated dances (motion
+only) are scored against the reference music, generated music (``.wav`` only) against the reference
+motion. A metric never scores a filled-in modality (``beat_scores`` of motion-only folders is an
+error, not F1 = 1); generated and reference motion must share a skeleton and a frame rate (a
+``.npz`` carries both; a ``<stem>.json`` beside a ``.npy`` may give them). Any registered metric
+runs by name, plugins included; ``--set NAME.KEY=VALUE`` sets a metric parameter. Prints a table;
+``--out`` writes JSON with the scores, each metric's provenance (source, config, specification), its
+warnings and its errors.
 
 Exit status: 0 every metric scored; 1 a metric failed (the others are still reported and
 written); 2 a usage or input error (nothing computed, nothing written).
@@ -47,8 +48,8 @@ def add_parser(sub: Any) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--gen", required=True, type=Path, help="folder of generated .npy motions and/or audio")
-    p.add_argument("--gt", required=True, type=Path, help="folder of reference .npy motions and/or audio")
+    p.add_argument("--gen", required=True, type=Path, help="folder of generated motions (.npy/.npz), audio")
+    p.add_argument("--gt", required=True, type=Path, help="folder of reference motions (.npy/.npz), audio")
     p.add_argument(
         "--metrics", required=True, help="comma-separated registered metric names (momu list metrics)"
     )
@@ -91,7 +92,7 @@ def build_metrics(names: Sequence[str], params: dict[str, dict[str, Any]]) -> di
     return built
 
 
-_MODALITY = {"motion": "motion (.npy)", "audio": "music (audio files)"}
+_MODALITY = {"motion": "motion (.npy/.npz)", "audio": "music (audio files)"}
 
 
 def check_inputs(

@@ -6,9 +6,10 @@ must share a skeleton (``(J, D)`` and, when given, its name) and a frame rate. I
 names and sizes: the clips it returns are :class:`LazyClip` records that read their arrays from
 disk each time a metric asks, so evaluating 500 pairs holds one pair in memory, not 500.
 
-A motion's frame rate and skeleton come from its sidecar ``<stem>.json`` (``{"fps": ..,
-"skeleton": ..}``, what ``momu generate`` writes) when there is one, else from ``--fps`` and the
-joint layout.
+A motion is a ``.npy`` of joint positions or a momu motion ``.npz`` (what ``momu generate`` writes,
+:mod:`momu.export.npz`), which carries its own frame rate and skeleton. A ``.npy`` motion's frame
+rate and skeleton come from a sidecar ``<stem>.json`` (``{"fps": .., "skeleton": ..}``) when there is
+one, else from ``--fps`` and the joint layout.
 """
 
 from __future__ import annotations
@@ -24,12 +25,13 @@ import soundfile as sf
 
 from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy
 from momu.data.types import Clip
+from momu.export.npz import read_motion_npz
 from momu.io import read_json
 from momu.metrics._audio import read_audio
 
 __all__ = ["EvalInputError", "LazyClip", "collect_folder", "load_pairs", "MOTION_SUFFIXES", "AUDIO_SUFFIXES"]
 
-MOTION_SUFFIXES = (".npy",)
+MOTION_SUFFIXES = (".npy", ".npz")
 # Joint layouts inferred from (J, D) when --skeleton is not given.
 _SKELETONS = {
     (24, 3): "smpl24",
@@ -69,11 +71,26 @@ def collect_folder(folder: Path) -> dict[str, dict[str, Path]]:
     return items
 
 
-def _read_motion(path: Path) -> np.ndarray:
+def _load_motion(path: Path) -> tuple[np.ndarray, dict[str, Any]]:
+    """The joint array and what the file says about it (``fps``, ``skeleton``; a .npz's own or the
+    sidecar JSON of a .npy)."""
+    if path.suffix.lower() == ".npz":
+        try:
+            record = read_motion_npz(path)
+        except (FileNotFoundError, ValueError) as exc:
+            raise EvalInputError(str(exc)) from None
+        return record.joints, {"fps": record.fps, "skeleton": record.skeleton}
     try:
-        arr = load_npy(path)
+        return load_npy(path), _sidecar(path)
     except DataFileError as exc:
         raise EvalInputError(str(exc)) from None
+
+
+def _read_motion(path: Path) -> np.ndarray:
+    return _checked_motion(path, _load_motion(path)[0])
+
+
+def _checked_motion(path: Path, arr: np.ndarray) -> np.ndarray:
     if arr.ndim != 3 or arr.shape[2] not in (2, 3):
         raise EvalInputError(
             f"{path}: expected joint positions (T, J, D) with D = 2 or 3, got shape {arr.shape}"
@@ -113,12 +130,13 @@ def _sidecar(path: Path) -> dict[str, Any]:
 
 def _motion_info(path: Path, fps: float, skeleton: str | None) -> _MotionInfo:
     """Check ``path`` (reading it once, keeping nothing) and return its shape, fps and skeleton."""
-    motion = _read_motion(path)
-    side = _sidecar(path)
+    raw, side = _load_motion(path)
+    motion = _checked_motion(path, raw)
     frames, joints, dims = (int(n) for n in motion.shape)
     rate = float(side.get("fps", fps))
     if not rate > 0:
-        raise EvalInputError(f"{path.with_suffix('.json')}: fps must be > 0, got {rate}")
+        where = path if path.suffix.lower() == ".npz" else path.with_suffix(".json")
+        raise EvalInputError(f"{where}: fps must be > 0, got {rate}")
     name = skeleton or str(side.get("skeleton") or _SKELETONS.get((joints, dims), ""))
     return _MotionInfo(path, frames, joints, dims, rate, name)
 
