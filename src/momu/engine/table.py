@@ -226,7 +226,8 @@ def parse_table_args(spec: TableSpec, argv: Sequence[str] | None = None) -> Tabl
         "--threads",
         type=int,
         default=None,
-        help="torch threads per process (default: 1 with --jobs > 1, else torch's default); recorded",
+        help="torch threads per process (default: 1 with --jobs > 1, else MOMU_NUM_THREADS or physical "
+        "cores / processes); recorded",
     )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)  # a --jobs worker
     parser.add_argument("overrides", nargs="*", metavar="key=value", help="config overrides for every row")
