@@ -32,7 +32,9 @@ the table trains, 0.97× for the music VAE and 1.00× for row #4's U-Net: no gai
 0.98× as the table trains and 0.96× for row #4's U-Net; the music VAE step, which the option does
 not touch, measured 0.99× (the noise of the method). ``--bf16 --pairs 100`` (2026-12-03, 2-core AMD
 EPYC with AVX512-BF16, bf16 matmul peak 219 against 92 GFLOP/s fp32): 0.72× on the full window,
-0.77× as the table trains, 0.97× for the music VAE and 1.18× for row #4's U-Net. With
+0.77× as the table trains, 0.97× for the music VAE and 1.18× for row #4's U-Net. ``--fused --pairs
+100`` (2026-12-04, a 2-core machine with a 103.8 GFLOP/s fp32 peak): 0.96× on the full window, 0.95×
+as the table trains, 0.92× for the music VAE and 0.90× for row #4's U-Net. With
 ``--results``: the committed Table 7 run's CPU seconds fill 84 % of its two jobs' wall time (one worker
 waited 562 s for the extractors); after workers started the extractors early (commit 7c70883) a
 complete from-scratch rerun at 297ec16, on a slower machine, filled 92 % (97 % counting the CPU
