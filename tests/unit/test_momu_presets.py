@@ -15,6 +15,7 @@ from momu.methods.momu.data import Rates
 from momu.methods.momu.presets_doc import presets_page
 from momu.methods.momu.recipes import paper_config, table7_spec, table10_spec
 from momu.methods.momu.tables import TABLE_SPECS
+from momu.training import train_config
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -31,8 +32,6 @@ def test_paper_preset_is_its_own_file_with_nothing_inherited() -> None:
 
 
 def test_momu_train_paper_preset_is_the_tables_paper_file() -> None:
-    from momu.training import train_config
-
     paper = train_config("momu", preset="paper")
     assert paper == load_config(paper_config(), [])  # not the cpu YAML (once `paper: []` over it)
     assert paper.method == _rows(table7_spec(), "paper")["#7"].method

@@ -71,9 +71,8 @@ def collect_folder(folder: Path) -> dict[str, dict[str, Path]]:
     return items
 
 
-def _load_motion(path: Path) -> tuple[np.ndarray, dict[str, Any]]:
-    """The joint array and what the file says about it (``fps``, ``skeleton``; a .npz's own or the
-    sidecar JSON of a .npy)."""
+def _load_motion(path: Path) -> tuple[np.ndarray, dict[str, Any] | None]:
+    """The joint array, and a .npz's own ``fps`` and ``skeleton`` (``None`` for a .npy)."""
     if path.suffix.lower() == ".npz":
         try:
             record = read_motion_npz(path)
@@ -81,7 +80,7 @@ def _load_motion(path: Path) -> tuple[np.ndarray, dict[str, Any]]:
             raise EvalInputError(str(exc)) from None
         return record.joints, {"fps": record.fps, "skeleton": record.skeleton}
     try:
-        return load_npy(path), _sidecar(path)
+        return load_npy(path), None
     except DataFileError as exc:
         raise EvalInputError(str(exc)) from None
 
@@ -130,8 +129,9 @@ def _sidecar(path: Path) -> dict[str, Any]:
 
 def _motion_info(path: Path, fps: float, skeleton: str | None) -> _MotionInfo:
     """Check ``path`` (reading it once, keeping nothing) and return its shape, fps and skeleton."""
-    raw, side = _load_motion(path)
+    raw, own = _load_motion(path)
     motion = _checked_motion(path, raw)
+    side = own if own is not None else _sidecar(path)  # a .npy's sidecar is read here only, once
     frames, joints, dims = (int(n) for n in motion.shape)
     rate = float(side.get("fps", fps))
     if not rate > 0:
