@@ -7,95 +7,17 @@ are the kinematic beats MoMu (§3.2, Eq. 1-2) and HarmoGAN (§III-B, Eq. 2-3) lo
 
 Pose controls are angles in radians (see :data:`CONTROLS`); ``turn`` (radians of yaw) and
 ``step_x``/``step_z`` (metres, in the body's facing frame; +x = the dancer's left, +z = forward)
-are *increments* applied over the beat leading to the key.
+are *increments* applied over the beat leading to the key (:mod:`momu.data.synth.style_schema`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+
+from momu.data.synth.style_schema import CONTROLS, INCREMENTS, NEUTRAL, Move, Style, move
 
 __all__ = ["CONTROLS", "INCREMENTS", "NEUTRAL", "Move", "Style", "STYLES", "STYLE_NAMES", "get_style"]
-
-# Pose controls (radians). Positive: lean_fwd = trunk pitches forward, lean_side = trunk leans to the
-# dancer's left, twist = chest turns left, nod = head pitches down, *_sh_flex = arm raised forward
-# (pi = straight up), *_sh_abd = arm raised sideways, *_elbow = elbow bent, *_hip_flex = thigh raised
-# forward (negative: leg back), *_hip_abd = leg out sideways, *_knee = knee bent.
-CONTROLS: tuple[str, ...] = (
-    "lean_fwd",
-    "lean_side",
-    "twist",
-    "nod",
-    "l_sh_flex",
-    "r_sh_flex",
-    "l_sh_abd",
-    "r_sh_abd",
-    "l_elbow",
-    "r_elbow",
-    "l_hip_flex",
-    "r_hip_flex",
-    "l_hip_abd",
-    "r_hip_abd",
-    "l_knee",
-    "r_knee",
-)
-INCREMENTS: tuple[str, ...] = ("turn", "step_x", "step_z")
-
-# The rest of every key pose: arms hanging slightly away from the body, elbows and knees soft.
-NEUTRAL: Mapping[str, float] = {
-    "l_sh_abd": 0.15,
-    "r_sh_abd": 0.15,
-    "l_elbow": 0.25,
-    "r_elbow": 0.25,
-    "l_knee": 0.08,
-    "r_knee": 0.08,
-    "l_hip_flex": 0.04,
-    "r_hip_flex": 0.04,
-}
-
-Key = Mapping[str, float]
-
-
-@dataclass(frozen=True)
-class Move:
-    """A named movement: ``keys[i]`` is the pose reached on the ``i``-th beat of the move."""
-
-    name: str
-    keys: tuple[Key, ...]
-    weight: float = 1.0
-
-
-@dataclass(frozen=True)
-class Style:
-    """One dance style.
-
-    Attributes:
-        name: style label (``Clip.style``).
-        bpm: ``(low, high)`` tempo range in beats per minute; each clip draws its tempo uniformly.
-        beats_per_bar: meter (the harmonic layer changes chord every bar).
-        kick: kick-drum gain per beat of the bar (0 = none).
-        snare: snare/clap gain per beat of the bar.
-        pluck: gain of a tonal pluck (chord note) per beat of the bar.
-        brightness: harmonic roll-off of the chord pad (higher = more upper partials).
-        octave: MIDI note of the chord root's lowest octave.
-        moves: the movement vocabulary.
-    """
-
-    name: str
-    bpm: tuple[float, float]
-    beats_per_bar: int
-    kick: tuple[float, ...]
-    snare: tuple[float, ...]
-    pluck: tuple[float, ...]
-    brightness: float
-    octave: int
-    moves: tuple[Move, ...]
-
-
-def _m(name: str, *keys: Key, weight: float = 1.0) -> Move:
-    return Move(name, tuple(keys), weight)
-
 
 PI = math.pi
 
@@ -109,7 +31,7 @@ _HIPHOP = Style(
     brightness=0.35,
     octave=36,
     moves=(
-        _m(
+        move(
             "bounce",
             {
                 "l_knee": 0.75,
@@ -135,14 +57,14 @@ _HIPHOP = Style(
             },
             weight=2.0,
         ),
-        _m(
+        move(
             "arm_pump",
             {"r_sh_flex": 1.7, "r_elbow": 0.5, "l_elbow": 1.6, "l_knee": 0.5, "r_knee": 0.5, "nod": 0.3},
             {"r_sh_flex": 0.4, "r_elbow": 1.9, "l_elbow": 1.2, "l_knee": 0.15, "r_knee": 0.15},
             {"l_sh_flex": 1.7, "l_elbow": 0.5, "r_elbow": 1.6, "l_knee": 0.5, "r_knee": 0.5, "nod": 0.3},
             {"l_sh_flex": 0.4, "l_elbow": 1.9, "r_elbow": 1.2, "l_knee": 0.15, "r_knee": 0.15},
         ),
-        _m(
+        move(
             "side_step",
             {
                 "step_x": -0.3,
@@ -181,7 +103,7 @@ _HIPHOP = Style(
                 "r_sh_flex": 0.6,
             },
         ),
-        _m(
+        move(
             "shoulder_rock",
             {
                 "twist": 0.45,
@@ -202,7 +124,7 @@ _HIPHOP = Style(
                 "r_knee": 0.4,
             },
         ),
-        _m(
+        move(
             "drop",
             {
                 "l_knee": 1.2,
@@ -239,7 +161,7 @@ _ZUMBA = Style(
     brightness=0.6,
     octave=45,
     moves=(
-        _m(
+        move(
             "step_touch",
             {
                 "step_x": 0.22,
@@ -279,7 +201,7 @@ _ZUMBA = Style(
             },
             weight=2.0,
         ),
-        _m(
+        move(
             "hip_sway",
             {
                 "lean_side": 0.3,
@@ -300,12 +222,12 @@ _ZUMBA = Style(
                 "l_knee": 0.4,
             },
         ),
-        _m(
+        move(
             "march",
             {"l_hip_flex": 1.0, "l_knee": 1.3, "r_sh_flex": 0.9, "l_sh_flex": -0.4, "r_elbow": 1.2},
             {"r_hip_flex": 1.0, "r_knee": 1.3, "l_sh_flex": 0.9, "r_sh_flex": -0.4, "l_elbow": 1.2},
         ),
-        _m(
+        move(
             "punch",
             {
                 "r_sh_flex": 1.55,
@@ -326,7 +248,7 @@ _ZUMBA = Style(
                 "r_knee": 0.35,
             },
         ),
-        _m(
+        move(
             "jumping_jack",
             {
                 "l_sh_abd": 2.7,
@@ -351,7 +273,7 @@ _BALLET = Style(
     brightness=0.8,
     octave=52,
     moves=(
-        _m(
+        move(
             "port_de_bras",
             {"l_sh_flex": 1.3, "r_sh_flex": 1.3, "l_elbow": 0.6, "r_elbow": 0.6, "nod": 0.15},
             {
@@ -365,7 +287,7 @@ _BALLET = Style(
             {"l_sh_abd": 1.45, "r_sh_abd": 1.45, "l_elbow": 0.2, "r_elbow": 0.2},
             weight=2.0,
         ),
-        _m(
+        move(
             "plie",
             {
                 "l_knee": 1.0,
@@ -398,7 +320,7 @@ _BALLET = Style(
                 "r_elbow": 0.4,
             },
         ),
-        _m(
+        move(
             "pirouette",
             {
                 "turn": PI,
@@ -422,7 +344,7 @@ _BALLET = Style(
             },
             {"l_sh_abd": 1.3, "r_sh_abd": 1.3, "l_elbow": 0.3, "r_elbow": 0.3},
         ),
-        _m(
+        move(
             "arabesque",
             {
                 "r_hip_flex": -1.0,
@@ -444,7 +366,7 @@ _BALLET = Style(
             },
             {"l_sh_abd": 1.0, "r_sh_abd": 1.0, "l_elbow": 0.5, "r_elbow": 0.5, "step_z": -0.15},
         ),
-        _m(
+        move(
             "glide",
             {
                 "step_x": 0.35,
@@ -477,13 +399,13 @@ _TECHNO = Style(
     brightness=0.95,
     octave=40,
     moves=(
-        _m(
+        move(
             "fist_pump",
             {"r_sh_flex": 2.6, "r_elbow": 0.7, "l_elbow": 1.6, "l_knee": 0.35, "r_knee": 0.35, "nod": 0.3},
             {"r_sh_flex": 1.4, "r_elbow": 1.7, "l_elbow": 1.3, "l_knee": 0.08, "r_knee": 0.08, "nod": -0.1},
             weight=2.0,
         ),
-        _m(
+        move(
             "shuffle",
             {"step_x": 0.12, "l_hip_flex": 0.5, "l_knee": 0.8, "twist": 0.25, "l_elbow": 1.5, "r_elbow": 1.5},
             {
@@ -511,12 +433,12 @@ _TECHNO = Style(
                 "r_elbow": 1.2,
             },
         ),
-        _m(
+        move(
             "head_bang",
             {"nod": 0.55, "lean_fwd": 0.3, "l_knee": 0.4, "r_knee": 0.4, "l_elbow": 1.4, "r_elbow": 1.4},
             {"nod": -0.15, "lean_fwd": 0.0, "l_elbow": 1.0, "r_elbow": 1.0},
         ),
-        _m(
+        move(
             "point",
             {
                 "l_sh_flex": 2.2,
