@@ -151,9 +151,10 @@ def train_method(
     from momu.engine import RunConfig, make_accelerator
     from momu.engine.context import RunContext, stage_key_hash
     from momu.engine.provenance import git_commit, package_versions
+    from momu.engine.preflight import open_dataset
 
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=overrides)
-    ds = build_component(cfg.dataset, "datasets")
+    ds = open_dataset(cfg.dataset)
     joints, dims = _motion_shape(ds)
     shape = [f"method.encoder.num_joints={joints}", f"method.encoder.joint_dims={dims}"]
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=[*overrides, *shape])

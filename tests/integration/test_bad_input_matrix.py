@@ -95,6 +95,17 @@ def _recipe(*argv: str) -> Callable[[Path], list[str]]:
     ]
 
 
+def _extractor(*argv: str) -> Callable[[Path], list[str]]:
+    """``momu extractor train --kind motion ARGV`` (``ROOT`` in an argument is the test's folder)."""
+    return lambda root: [
+        "extractor",
+        "train",
+        "--kind",
+        "motion",
+        *(a.replace("ROOT", str(root)) for a in argv),
+    ]
+
+
 def _bad_yaml(root: Path) -> list[str]:
     (root / "bad.yaml").write_text("seed: [1, 2\n")
     return ["config", "show", str(root / "bad.yaml")]
@@ -315,6 +326,28 @@ CASES = [
         "num_clips",
     ),
     Case("data-synth-non-empty-out", _synth_nonempty, "--overwrite"),
+    # momu train / momu extractor train: a bad option fails before anything is written
+    Case(
+        "train-bad-dataset-option",
+        lambda root: ["train", "momu", "--preset", "smoke", "--out", str(root / "o"), "dataset.num_clips=-3"],
+        "num_clips",
+    ),
+    Case(
+        "train-unknown-key",
+        lambda root: ["train", "momu", "--preset", "smoke", "--out", str(root / "o"), "method.zz=1"],
+        "method.zz",
+    ),
+    Case(
+        "train-data-folder-missing",
+        lambda root: ["train", "momu", "--data", str(root / "nope"), "--out", str(root / "o")],
+        "nope",
+    ),
+    Case("extractor-bad-out-suffix", _extractor("--data", "synth", "--out", "ROOT/x.bin"), "--out"),
+    Case(
+        "extractor-data-not-a-folder",
+        _extractor("--data", "ROOT/nope", "--out", "ROOT/x.safetensors"),
+        "--data ",
+    ),
     # a recipe (MoMu Table 7, smoke preset): every failure comes before training
     Case(
         "recipe-out-is-a-file",
@@ -364,7 +397,15 @@ def _run(argv: list[str]) -> int:
 
 def test_the_matrix_is_wide_enough() -> None:
     commands = {c.id.split("-")[0] for c in CASES}
-    assert len(CASES) >= 25 and commands >= {"config", "eval", "generate", "data", "recipe"}
+    assert len(CASES) >= 25 and commands >= {
+        "config",
+        "eval",
+        "generate",
+        "data",
+        "train",
+        "extractor",
+        "recipe",
+    }
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])

@@ -25,7 +25,7 @@ from momu.config.schema import RecipeConfig
 from momu.io import check_output_dir
 from momu.registry import PluginError, RegistryError
 
-__all__ = ["row_config", "check_outputs", "check_datasets", "override_for"]
+__all__ = ["row_config", "check_outputs", "check_datasets", "open_dataset", "override_for"]
 
 CONFIG_SCHEMA = RecipeConfig
 """The schema every recipe config is validated against."""
@@ -104,7 +104,7 @@ def check_datasets(
             text = json.dumps(plain, sort_keys=True, default=str)
             if text not in seen:
                 seen.add(text)
-                _open(plain)
+                open_dataset(plain)
         if check is not None:
             try:
                 check(cfg)
@@ -114,10 +114,12 @@ def check_datasets(
                 raise ConfigError(str(exc)) from None
 
 
-def _open(node: Any) -> None:
+def open_dataset(node: Any) -> Any:
+    """Build the dataset ``node`` names; a bad option or a missing root is a ``ConfigError`` naming
+    ``dataset`` (one line, exit status 2 from a CLI) instead of the loader's own exception."""
     name = node.get("name") if isinstance(node, Mapping) else node
     try:
-        build_component(node, "datasets")
+        return build_component(node, "datasets")
     except ConfigError as exc:
         raise ConfigError(f"dataset: {exc}") from None
     except (ValueError, OSError, RegistryError, PluginError) as exc:
