@@ -80,13 +80,15 @@ def test_a_half_written_step_folder_is_skipped_and_reported(
 ) -> None:
     acc = _accelerator(tmp_path)
     root = tmp_path / "ckpt"
-    _train(acc, root, dataclasses.replace(CFG, keep_checkpoints=0))  # step 4, 8, 12
+    reference = _weights(_train(acc, root, dataclasses.replace(CFG, keep_checkpoints=0)))  # step 4, 8, 12
     (root / "step_00000012" / "optimizer.json").unlink()  # the failure the fault run found
     assert not is_complete(root / "step_00000012")
     assert [p.name for p in incomplete_checkpoints(root)] == ["step_00000012"]
     caplog.set_level(logging.WARNING)
-    _train(acc, root, CFG, resume=True)  # resumes from step 8, retrains 9-12
+    resumed = _train(acc, root, CFG, model_seed=99, resume=True)  # resumes from step 8, retrains 9-12
     assert "skipping incomplete checkpoint" in caplog.text and "step_00000012" in caplog.text
+    for key, value in _weights(resumed).items():  # a silent restart from step 0 would differ (seed 99)
+        assert torch.equal(value, reference[key]), key
 
 
 def test_resume_with_only_incomplete_checkpoints_refuses_to_start_over(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from tests.unit.test_metrics_beats_audio import SR, clicks, swing
 from momu.cli import eval_inputs, generate_cmd
 from momu.data import ballroom, common
 from momu.export.npz import write_motion_npz
+from momu.io import write_json
 from momu.registry import METRICS
 
 
@@ -138,14 +139,24 @@ def test_a_failing_metric_is_reported_and_the_others_kept(
         METRICS.unregister("h13_broken")
 
 
-def test_pairs_are_checked_once_and_read_lazily(tmp_path: Path) -> None:
+def test_pairs_are_checked_once_and_read_lazily(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     gen, gt = make_pair_dirs(tmp_path, n=3)
+    for i in range(3):
+        write_json(gen / f"clip{i}.json", {"fps": FPS})
+    reads: list[Path] = []
+    real_read_json = eval_inputs.read_json
+    monkeypatch.setattr(eval_inputs, "read_json", lambda p: reads.append(Path(p)) or real_read_json(p))
     generated, reference = eval_inputs.load_pairs(gen, gt, FPS)
+    assert sorted(p.name for p in reads) == ["clip0.json", "clip1.json", "clip2.json"]  # each sidecar once
     for clip in (*generated, *reference):
         assert isinstance(clip, eval_inputs.LazyClip)
         assert not any(isinstance(v, np.ndarray) for v in vars(clip).values())  # no arrays held
     assert generated[0].motion.shape == (150, 3, 3) and generated[0].audio is not None
     assert generated[0].generated_modalities == ("motion",)
+    changed = np.load(gen / "clip0.npy") + 1.0
+    np.save(gen / "clip0.npy", changed)  # the motion is read from its file on every access
+    np.testing.assert_array_equal(generated[0].motion, changed)
+    assert len(reads) == 3  # and the sidecar is not read again
 
 
 def test_a_repeated_warning_is_printed_once(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:

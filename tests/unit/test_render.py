@@ -305,13 +305,10 @@ def test_animation_rejects_bad_input(
     assert list(tmp_path.iterdir()) == []
 
 
-def test_mp4_without_imageio_ffmpeg_says_what_to_install(tmp_path: Path) -> None:
-    try:
-        import imageio_ffmpeg  # noqa: F401
-    except ImportError:
-        pass
-    else:  # pragma: no cover - environment dependent
-        pytest.skip("imageio-ffmpeg is installed: mp4 is available")
+def test_mp4_without_imageio_ffmpeg_says_what_to_install(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # as if not installed: its import fails
     with pytest.raises(RuntimeError, match="pip install imageio-ffmpeg"):
         skeleton_animation(tmp_path / "a.mp4", _rest_motion("smpl24", 3), FPS, "smpl24")
     assert list(tmp_path.iterdir()) == []

@@ -247,8 +247,11 @@ def test_cli_writes_and_rejects_bad_options(tmp_path: Path, capsys: pytest.Captu
     assert momu_main([*args, "--styles", "disco"]) == 2
     assert "disco" in capsys.readouterr().err
     assert momu_main([*args, "--seconds", "0"]) == 2
-    with pytest.raises(SystemExit):
+    assert "min_seconds" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
         momu_main([*args, "--skeleton", "nope"])
+    assert exit_.value.code == 2
+    assert "--skeleton" in capsys.readouterr().err.strip().splitlines()[-1]
 
 
 def test_breaks_silence_the_music_and_the_motion_flows_through() -> None:

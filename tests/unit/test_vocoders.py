@@ -53,8 +53,11 @@ def test_griffin_lim_batches_and_is_seeded() -> None:
     voc = VOCODERS.build("griffin_lim", {"n_iter": 4})
     mel = momu_mel(tone(seconds=0.3), SR)
     batch = voc(np.stack([mel, mel]))
-    assert batch.shape[0] == 2
+    assert batch.shape == (2, voc(mel).shape[0])
     np.testing.assert_array_equal(voc(mel), voc(mel))
+    np.testing.assert_array_equal(batch[0], voc(mel))  # item i is seeded with seed + i
+    np.testing.assert_array_equal(batch[1], VOCODERS.build("griffin_lim", {"n_iter": 4, "seed": 1})(mel))
+    assert not np.array_equal(batch[0], batch[1])
 
 
 def test_griffin_lim_bad_input() -> None:

@@ -32,7 +32,8 @@ class GriffinLimConfig:
         n_iter: Griffin-Lim iterations (librosa default 32).
         momentum: fast Griffin-Lim momentum (librosa default 0.99).
         random_phase: start from random phases (seeded by ``seed``) instead of zeros.
-        seed: RNG seed for the random initial phase.
+        seed: RNG seed for the random initial phase; item ``i`` of a batch uses ``seed + i`` (a
+            batch of one item is the item alone).
         mel_inversion: how the mel power is mapped back to a linear-frequency magnitude, both
             solving ``min ‖M x − p‖², x ≥ 0`` per frame (``M`` the mel filterbank): ``librosa``
             (:func:`librosa.feature.inverse.mel_to_stft`, L-BFGS-B, run by
