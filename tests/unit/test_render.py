@@ -278,10 +278,21 @@ def test_animation_adds_trajectory_back(tmp_path: Path) -> None:
     motion = _rest_motion("smpl24", 3)
     with pytest.raises(ValueError, match="trajectory"):
         skeleton_animation(tmp_path / "a.gif", motion, FPS, "smpl24", trajectory=np.zeros((2, 3)))
-    skeleton_animation(
-        tmp_path / "a.gif", motion, FPS, "smpl24", trajectory=np.ones((3, 3)), figsize=(1.0, 1.0), dpi=20
-    )
-    assert (tmp_path / "a.gif").read_bytes()[:4] == b"GIF8"
+    walk = np.zeros((3, 3))
+    walk[:, 0] = [0.0, 2.0, 4.0]  # the root moves 2 m a frame along +x (screen right in the default plane)
+    moved = {}
+    for name, trajectory in (("still", None), ("walk", walk)):
+        path = skeleton_animation(
+            tmp_path / f"{name}.gif", motion, FPS, "smpl24", trajectory=trajectory, out_fps=FPS,
+            figsize=(2.0, 2.0), dpi=40,
+        )  # fmt: skip
+        with Image.open(path) as im:
+            drawn = [np.asarray(f.convert("L")) < 200 for f in ImageSequence.Iterator(im)]
+        appeared, vanished = drawn[-1] & ~drawn[0], drawn[0] & ~drawn[-1]  # the axes box is in both
+        moved[name] = (int(appeared.sum() + vanished.sum()), appeared, vanished)
+    assert moved["still"][0] < 20 < moved["walk"][0]  # a resting body stays put; a walking one moves
+    _, appeared, vanished = moved["walk"]
+    assert np.nonzero(appeared)[1].mean() - np.nonzero(vanished)[1].mean() > 20.0  # to the right (+x)
 
 
 @pytest.mark.parametrize(
