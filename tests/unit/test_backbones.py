@@ -186,7 +186,18 @@ def test_dit_pad_to_max_is_a_no_op(positions: str) -> None:
     b = tiny_dit(pad_to_max=True, positions=positions)
     b.load_state_dict(a.state_dict())
     x, t, c = torch.randn(2, 10, 4), torch.tensor([1, 700]), torch.randn(2, 6, 3)
-    torch.testing.assert_close(a(x, t, c), b(x, t, c), atol=1e-5, rtol=1e-5)
+    widths: dict[str, set[int]] = {}
+    for name, model in (("a", a), ("b", b)):
+        weights: list[torch.Tensor] = []
+        for block in model.blocks:
+            block.attn.recorder = weights
+        out = model(x, t, c)
+        widths[name] = {w.shape[-1] for w in weights}
+        if name == "a":
+            reference = out
+    torch.testing.assert_close(out, reference, atol=1e-5, rtol=1e-5)
+    capacity = 2 * 64 + 1 if positions == "aligned" else 64  # max_length = 64
+    assert widths == {"a": {10 + 6 + 1}, "b": {capacity}}  # b attends over the padded tokens (masked)
 
 
 @pytest.mark.parametrize(

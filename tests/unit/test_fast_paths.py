@@ -5,9 +5,10 @@ from __future__ import annotations
 import dataclasses
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 import torch
@@ -187,9 +188,28 @@ KERNEL_TOL = 3e-5
         ({"fused_optimizer": True}, KERNEL_TOL),
     ],
 )
-def test_fast_paths_train_to_the_same_weights(tmp_path: Path, fields: dict, tol: float) -> None:
+def test_fast_paths_train_to_the_same_weights(
+    tmp_path: Path, fields: dict, tol: float, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from momu.engine import trainer
+
     ref = _train_dit(tmp_path / "ref")
+    used: dict[str, tuple] = {}  # what the trainer hands each fast path (equal weights alone would not
+    # show that a fast path ran)
+
+    def spy(name: str, real: Callable[..., Any]) -> Callable[..., Any]:
+        def call(*args: Any) -> Any:
+            used[name] = args
+            return real(*args)
+
+        return call
+
+    for name in ("compile_backbones", "attention_kernels", "make_adamw"):
+        monkeypatch.setattr(trainer, name, spy(name, getattr(trainer, name)))
     fast = _train_dit(tmp_path / "fast", **fields)
+    assert used["compile_backbones"][1] == fields.get("compile", "none")
+    assert used["attention_kernels"][0] == fields.get("attention", "auto")
+    assert used["make_adamw"][1].fused_optimizer is fields.get("fused_optimizer", False)
     for name, value in ref.items():
         if name.endswith("to_k.bias"):  # its true gradient is 0 (softmax ignores a key bias): Adam
             continue  # turns the kernels' 1e-9 rounding of that 0 into lr-sized steps
