@@ -5,9 +5,8 @@ generator eases every control from one key pose to the next over exactly one (ji
 all joints come to rest and change direction on the beat: velocity minima and directional changes
 are the kinematic beats MoMu (§3.2, Eq. 1-2) and HarmoGAN (§III-B, Eq. 2-3) look for.
 
-Pose controls are angles in radians (see :data:`CONTROLS`); ``turn`` (radians of yaw) and
-``step_x``/``step_z`` (metres, in the body's facing frame; +x = the dancer's left, +z = forward)
-are *increments* applied over the beat leading to the key (:mod:`momu.data.synth.style_schema`).
+The vocabulary the styles are written in (pose controls, key poses, :class:`Move`, :class:`Style`)
+is :mod:`momu.data.synth.style_schema`.
 """
 
 from __future__ import annotations
