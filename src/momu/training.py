@@ -150,8 +150,8 @@ def train_method(
     """Train ``method`` on ``data`` (``synth`` or a folder) and save the model under ``out``."""
     from momu.engine import RunConfig, make_accelerator
     from momu.engine.context import RunContext, stage_key_hash
-    from momu.engine.provenance import git_commit, package_versions
     from momu.engine.preflight import open_dataset
+    from momu.engine.provenance import git_commit, package_versions
 
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=overrides)
     ds = open_dataset(cfg.dataset)
