@@ -76,6 +76,8 @@ class Case:
 
 
 MOMU_YAML = str(RECIPES / "configs" / "momu.yaml")
+TRAIN_SMOKE = ("train", "momu", "--preset", "smoke", "--out", "ROOT/o")
+EXTRACTOR = ("extractor", "train", "--kind", "motion")
 
 
 def _show(*overrides: str) -> Callable[[Path], list[str]]:
@@ -95,15 +97,9 @@ def _recipe(*argv: str) -> Callable[[Path], list[str]]:
     ]
 
 
-def _extractor(*argv: str) -> Callable[[Path], list[str]]:
-    """``momu extractor train --kind motion ARGV`` (``ROOT`` in an argument is the test's folder)."""
-    return lambda root: [
-        "extractor",
-        "train",
-        "--kind",
-        "motion",
-        *(a.replace("ROOT", str(root)) for a in argv),
-    ]
+def _momu(*argv: str) -> Callable[[Path], list[str]]:
+    """``momu ARGV``, ``ROOT`` in an argument standing for the test's folder."""
+    return lambda root: [a.replace("ROOT", str(root)) for a in argv]
 
 
 def _bad_yaml(root: Path) -> list[str]:
@@ -327,25 +323,13 @@ CASES = [
     ),
     Case("data-synth-non-empty-out", _synth_nonempty, "--overwrite"),
     # momu train / momu extractor train: a bad option fails before anything is written
-    Case(
-        "train-bad-dataset-option",
-        lambda root: ["train", "momu", "--preset", "smoke", "--out", str(root / "o"), "dataset.num_clips=-3"],
-        "num_clips",
-    ),
-    Case(
-        "train-unknown-key",
-        lambda root: ["train", "momu", "--preset", "smoke", "--out", str(root / "o"), "method.zz=1"],
-        "method.zz",
-    ),
-    Case(
-        "train-data-folder-missing",
-        lambda root: ["train", "momu", "--data", str(root / "nope"), "--out", str(root / "o")],
-        "nope",
-    ),
-    Case("extractor-bad-out-suffix", _extractor("--data", "synth", "--out", "ROOT/x.bin"), "--out"),
+    Case("train-bad-dataset-option", _momu(*TRAIN_SMOKE, "dataset.num_clips=-3"), "num_clips"),
+    Case("train-unknown-key", _momu(*TRAIN_SMOKE, "method.zz=1"), "method.zz"),
+    Case("train-data-folder-missing", _momu(*TRAIN_SMOKE, "--data", "ROOT/nope"), "nope"),
+    Case("extractor-bad-out-suffix", _momu(*EXTRACTOR, "--data", "synth", "--out", "ROOT/x.bin"), "--out"),
     Case(
         "extractor-data-not-a-folder",
-        _extractor("--data", "ROOT/nope", "--out", "ROOT/x.safetensors"),
+        _momu(*EXTRACTOR, "--data", "ROOT/nope", "--out", "ROOT/x.safetensors"),
         "--data ",
     ),
     # a recipe (MoMu Table 7, smoke preset): every failure comes before training
