@@ -56,11 +56,35 @@ def test_clip_contents_and_units() -> None:
 
 def test_styles_cycle_and_have_distinct_tempo_ranges() -> None:
     styles = [generate_clip(SMALL, i).style for i in range(6)]
-    assert styles == ["ballet", "hiphop", "zumba", "techno", "ballet", "hiphop"]
+    assert styles == ["ballet", "hiphop", "zumba", "techno", "waltz", "rumba"]
     from momu.data.synth import STYLES
+    from momu.data.synth.styles_ballroom import BALLROOM_STYLES
 
-    ranges = sorted(s.bpm for s in STYLES.values())
-    assert all(a[1] < b[0] for a, b in zip(ranges[:-1], ranges[1:], strict=True))
+    ballroom = {s.name for s in BALLROOM_STYLES}
+    for family in (ballroom, set(STYLES) - ballroom):  # in place, and travelling: each disjoint
+        ranges = sorted(s.bpm for s in STYLES.values() if s.name in family)
+        assert all(a[1] < b[0] for a, b in zip(ranges[:-1], ranges[1:], strict=True))
+
+
+def test_ballroom_styles_travel_and_step_like_real_dancers() -> None:
+    """Dance with Melody dancers travel 15-55 m/min with ankles near 0.7 m/s (issue 32); the in-place
+    styles travel a few metres a minute at most."""
+    cfg = replace(
+        SMALL, skeleton="dwm21", fps=25.0, min_seconds=20.0, max_seconds=20.0, trajectory_radius=4.0
+    )
+
+    def travel_and_ankle(style: str) -> tuple[float, float]:
+        clip = generate_clip(replace(cfg, styles=[style]), 0)
+        root, ankles = clip.motion[:, 2, [0, 2]], clip.motion[:, [9, 18]]
+        minute = clip.duration / 60.0
+        travel = float(np.linalg.norm(np.diff(root, axis=0), axis=-1).sum()) / minute
+        return travel, float(np.linalg.norm(np.diff(ankles, axis=0), axis=-1).mean() * clip.fps)
+
+    for style in ("waltz", "rumba", "cha_cha", "quickstep"):
+        travel, ankle = travel_and_ankle(style)
+        assert 12.0 < travel < 60.0 and 0.4 < ankle < 1.3, (style, travel, ankle)
+    travel, _ = travel_and_ankle("ballet")
+    assert travel < 10.0
 
 
 def test_deterministic_and_independent_of_num_clips() -> None:

@@ -9,6 +9,7 @@ from momu.encoders import (  # noqa: F401
     harmogan_generator,
     learnable_motion,
     mfcc,
+    rhythm,
     text_transformer,
     waveform,
 )

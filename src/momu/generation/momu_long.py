@@ -116,7 +116,7 @@ def music_to_motion_long(
     schedule: str = "two_pass",
 ) -> list[np.ndarray]:
     """Music → motion for songs of any length: one ``(T, J, D)`` motion at ``rates.motion_fps`` per song."""
-    conds = [model.encode_music(a, sample_rate) for a in audios]
+    conds = [model.condition_from_music(a, sample_rate) for a in audios]
     latents = _generate(
         model, "motion", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress, schedule
     )
@@ -136,7 +136,7 @@ def motion_to_music_long(
     schedule: str = "two_pass",
 ) -> list[np.ndarray]:
     """Motion → music for dances of any length: one waveform at ``rates.sample_rate`` per motion."""
-    conds = [model.encode_motion(m, fps) for m in motions]
+    conds = [model.condition_from_motion(m, fps) for m in motions]
     latents = _generate(
         model, "music", conds, seeds, guidance_scale, window_seconds, overlap_seconds, progress, schedule
     )

@@ -1,7 +1,9 @@
 """``diffusion``: the ε-prediction objective with condition dropout (MoMu Eq. 6, §4 "null" condition).
 
 L = ‖ε_θ(z_t, t, c) − ε‖²₂ with t ~ U{0, …, T−1}, ε ~ N(0, I) and z_t from the scheduler's
-closed-form forward diffusion (Eq. 5). With probability ``cond_drop_prob`` an item's condition is
+closed-form forward diffusion (Eq. 5). A scheduler whose ``prediction_type`` is ``sample`` trains
+the denoiser to output ẑ_0 instead, L = ‖x̂_θ(z_t, t, c) − z_0‖²₂ (MDM, EDGE); the output's ε̂ and
+ẑ_0 are both returned either way. With probability ``cond_drop_prob`` an item's condition is
 replaced by the backbone's learned null embedding (``drop_cond``), which trains the unconditional
 branch used by classifier-free guidance (Eq. 7). The mean runs over valid frames only.
 """
@@ -112,11 +114,12 @@ class DiffusionLoss(nn.Module):
             dropped = (torch.rand(b, generator=generator, device=gen_dev) < self.cfg.cond_drop_prob).to(dev)
         else:
             dropped = torch.zeros(b, dtype=torch.bool, device=dev)
-        eps_pred = backbone(
+        output = backbone(
             x_t, t, cond, x_mask=x_mask, cond_mask=cond_mask, drop_cond=dropped if cond is not None else None
         )
-        loss = masked_mse(eps_pred, noise, x_mask)
-        x0_pred = self.scheduler.predict_x0(x_t, eps_pred, t)
+        loss = masked_mse(output, self.scheduler.target(x0, noise), x_mask)
+        eps_pred = self.scheduler.eps_of(x_t, output, t)
+        x0_pred = self.scheduler.x0_of(x_t, output, t)
         return DiffusionLossOutput(loss, eps_pred, noise, x_t, t, x0_pred, dropped)
 
 

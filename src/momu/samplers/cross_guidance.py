@@ -134,8 +134,8 @@ class CrossGuidanceSampler:
             eps_a = music_backbone(z_a, t, None, x_mask=music_mask)  # ε_θa(z_a(t), t, ∅)
             eps_m = motion_backbone(z_m, t, None, x_mask=motion_mask)  # ε_θm(z_m(t), t, ∅)
             if t_int + 1 <= t_c:  # T_c ≥ t > 0: cross guidance with the other's ẑ_0 (Alg. 2)
-                x0_a = self.scheduler.predict_x0(z_a, eps_a, t)
-                x0_m = self.scheduler.predict_x0(z_m, eps_m, t)
+                x0_a = self.scheduler.x0_of(z_a, eps_a, t)
+                x0_m = self.scheduler.x0_of(z_m, eps_m, t)
                 cond_a = music_backbone(z_a, t, x0_m, x_mask=music_mask, cond_mask=motion_mask)
                 cond_m = motion_backbone(z_m, t, x0_a, x_mask=motion_mask, cond_mask=music_mask)
                 eps_a = eps_a + s_a * (cond_a - eps_a)  # Eq. 7

@@ -8,6 +8,10 @@ that samplers and losses can ask for what they need:
   the closed form of MoMu Eq. 5;
 * :meth:`NoiseScheduler.predict_x0` — ẑ_0 = (z_t − √(1−ᾱ_t) ε) / √ᾱ_t (MoMu Alg. 2; the paper
   prints α_t where the DDPM identity needs ᾱ_t, which is used here);
+* :attr:`NoiseScheduler.prediction_type` — what a denoiser predicts: ``epsilon`` (the noise, both
+  papers) or ``sample`` (ẑ_0 itself, as MDM and EDGE do for motion); :meth:`NoiseScheduler.x0_of`,
+  :meth:`NoiseScheduler.eps_of` and :meth:`NoiseScheduler.target` translate, so losses and
+  samplers work with either;
 * :meth:`NoiseScheduler.begin` — a fresh reverse-process run (its own copy of the diffusers
   scheduler, so two chains, as in cross-guidance, never share state) with ``timesteps`` and
   ``step`` (MoMu Eq. 8–9 for DDPM; DDIM for the 50-step sampling of MoMu §5.1).
@@ -38,6 +42,8 @@ __all__ = [
 
 _BETA_SCHEDULES = ("linear", "scaled_linear", "squaredcos_cap_v2", "sigmoid")
 _SPACINGS = ("leading", "trailing", "linspace")
+PREDICTION_TYPES = ("epsilon", "sample")
+"""What a denoiser may predict (diffusers' names)."""
 
 
 @dataclass
@@ -55,6 +61,9 @@ class DDPMConfig:
         clip_sample: clip ẑ_0 to ±``clip_sample_range`` in each step (off: latents are unbounded;
             on, it keeps an imperfect ε-model from drifting at high noise levels).
         clip_sample_range: the clipping bound.
+        prediction_type: what the denoiser predicts: ``epsilon`` (the noise; MoMu Eq. 6, MoFusion
+            Eq. 3) or ``sample`` (the clean ẑ_0: its loss weighs every noise level alike, so what
+            only the condition can tell — e.g. *when* a dancer steps — is learned at high noise).
     """
 
     num_train_timesteps: int = 1000
@@ -66,6 +75,7 @@ class DDPMConfig:
     timestep_spacing: str = "leading"
     clip_sample: bool = False
     clip_sample_range: float = 1.0
+    prediction_type: str = "epsilon"
 
 
 @dataclass
@@ -80,6 +90,7 @@ class DDIMConfig:
         set_alpha_to_one: use ᾱ_prev = 1 at the final step (diffusers' default).
         clip_sample: clip ẑ_0 to ±``clip_sample_range`` in each step (see :class:`DDPMConfig`).
         clip_sample_range: the clipping bound.
+        prediction_type: ``epsilon`` or ``sample`` (see :class:`DDPMConfig`).
     """
 
     num_train_timesteps: int = 1000
@@ -92,6 +103,7 @@ class DDIMConfig:
     set_alpha_to_one: bool = True
     clip_sample: bool = False
     clip_sample_range: float = 1.0
+    prediction_type: str = "epsilon"
 
 
 def _check_common(kind: str, cfg: DDPMConfig | DDIMConfig) -> None:
@@ -110,6 +122,8 @@ def _check_common(kind: str, cfg: DDPMConfig | DDIMConfig) -> None:
         raise ValueError(f"{kind}.clip_sample_range must be positive, got {cfg.clip_sample_range}")
     if cfg.timestep_spacing not in _SPACINGS:
         raise ValueError(f"{kind}.timestep_spacing {cfg.timestep_spacing!r} not one of {_SPACINGS}")
+    if cfg.prediction_type not in PREDICTION_TYPES:
+        raise ValueError(f"{kind}.prediction_type {cfg.prediction_type!r} not one of {PREDICTION_TYPES}")
 
 
 class SamplingRun:
@@ -128,7 +142,8 @@ class SamplingRun:
         x: Tensor,
         generator: torch.Generator | list[torch.Generator] | None = None,
     ) -> Tensor:
-        """z_{t−Δt} from z_t and the predicted noise ``eps`` (both ``(B, T, C)``)."""
+        """z_{t−Δt} from z_t and the denoiser's output ``eps`` (the noise, or ẑ_0 for a ``sample``
+        predictor; both ``(B, T, C)``)."""
         out = self.scheduler.step(eps, int(t), x, generator=generator, return_dict=True, **self._step_kwargs)
         return out.prev_sample
 
@@ -188,6 +203,23 @@ class NoiseScheduler:
         abar = self._abar(t, x_t)
         return (x_t - torch.sqrt(abar) * x0) / torch.sqrt(1.0 - abar)
 
+    @property
+    def prediction_type(self) -> str:
+        """What the denoiser predicts: ``epsilon`` or ``sample`` (:data:`PREDICTION_TYPES`)."""
+        return str(self.scheduler.config.prediction_type)
+
+    def x0_of(self, x_t: Tensor, output: Tensor, t: Tensor) -> Tensor:
+        """ẑ_0 from a denoiser's output at ``t``, whatever it predicts."""
+        return output if self.prediction_type == "sample" else self.predict_x0(x_t, output, t)
+
+    def eps_of(self, x_t: Tensor, output: Tensor, t: Tensor) -> Tensor:
+        """ε̂ from a denoiser's output at ``t``, whatever it predicts."""
+        return self.predict_eps(x_t, output, t) if self.prediction_type == "sample" else output
+
+    def target(self, x0: Tensor, noise: Tensor) -> Tensor:
+        """The training target of the denoiser's output: ``noise`` (epsilon) or ``x0`` (sample)."""
+        return x0 if self.prediction_type == "sample" else noise
+
     def sample_timesteps(
         self, batch: int, generator: torch.Generator | None = None, device: Any = None
     ) -> Tensor:
@@ -209,7 +241,7 @@ class NoiseScheduler:
 
 @SCHEDULERS.register("ddpm", config=DDPMConfig)
 def build_ddpm(cfg: DDPMConfig, **deps: object) -> NoiseScheduler:
-    """diffusers ``DDPMScheduler`` (ε-prediction), T = 1000, linear β 1e-4…0.02 by default."""
+    """diffusers ``DDPMScheduler`` (ε-prediction unless ``prediction_type``), T = 1000, linear β 1e-4…0.02."""
     _check_common("ddpm", cfg)
     sched = DDPMScheduler(
         num_train_timesteps=cfg.num_train_timesteps,
@@ -219,7 +251,7 @@ def build_ddpm(cfg: DDPMConfig, **deps: object) -> NoiseScheduler:
         variance_type=cfg.variance_type,
         clip_sample=cfg.clip_sample,
         clip_sample_range=cfg.clip_sample_range,
-        prediction_type="epsilon",
+        prediction_type=cfg.prediction_type,
         timestep_spacing=cfg.timestep_spacing,
     )
     return NoiseScheduler(sched, cfg.num_inference_steps, name="ddpm")
@@ -227,7 +259,7 @@ def build_ddpm(cfg: DDPMConfig, **deps: object) -> NoiseScheduler:
 
 @SCHEDULERS.register("ddim", config=DDIMConfig)
 def build_ddim(cfg: DDIMConfig, **deps: object) -> NoiseScheduler:
-    """diffusers ``DDIMScheduler`` (ε-prediction), 50 steps by default (MoMu §5.1)."""
+    """diffusers ``DDIMScheduler`` (ε-prediction unless ``prediction_type``), 50 steps (MoMu §5.1)."""
     _check_common("ddim", cfg)
     if cfg.eta < 0:
         raise ValueError(f"ddim.eta must be >= 0, got {cfg.eta}")
@@ -239,7 +271,7 @@ def build_ddim(cfg: DDIMConfig, **deps: object) -> NoiseScheduler:
         clip_sample=cfg.clip_sample,
         clip_sample_range=cfg.clip_sample_range,
         set_alpha_to_one=cfg.set_alpha_to_one,
-        prediction_type="epsilon",
+        prediction_type=cfg.prediction_type,
         timestep_spacing=cfg.timestep_spacing,
     )
     return NoiseScheduler(sched, cfg.num_inference_steps, {"eta": cfg.eta}, name="ddim")

@@ -15,6 +15,7 @@ import math
 from collections.abc import Mapping
 
 from momu.data.synth.style_schema import CONTROLS, INCREMENTS, NEUTRAL, Move, Style, move
+from momu.data.synth.styles_ballroom import BALLROOM_STYLES
 
 __all__ = ["CONTROLS", "INCREMENTS", "NEUTRAL", "Move", "Style", "STYLES", "STYLE_NAMES", "get_style"]
 
@@ -452,7 +453,7 @@ _TECHNO = Style(
     ),
 )
 
-STYLES: Mapping[str, Style] = {s.name: s for s in (_BALLET, _HIPHOP, _ZUMBA, _TECHNO)}
+STYLES: Mapping[str, Style] = {s.name: s for s in (_BALLET, _HIPHOP, _ZUMBA, _TECHNO, *BALLROOM_STYLES)}
 STYLE_NAMES: tuple[str, ...] = tuple(STYLES)
 
 

@@ -93,6 +93,20 @@ class MoMuConfig:
             window masked) or ``batch`` (one length per batch, every item cut to it: the same
             distribution of lengths with no padded tokens and no attention mask, so a step costs
             what its valid frames cost).
+        motion_condition: θ_m's condition *features* (a registered encoder node with
+            ``features``/``track``, e.g. ``{name: music_rhythm}``: the song's beat phase, tempo and
+            onset envelope at the latent rate); ``null`` conditions θ_m on the music latent alone
+            (MoMu Eq. 6).
+        music_condition: θ_a's condition features (e.g. ``{name: motion_rhythm}``); ``null``: the
+            motion latent alone.
+        condition_latents: with condition features, keep the other modality's latent in the
+            condition too (concatenated before the features); ``false`` conditions on the features
+            alone — what transfers from synthetic to real music (issue 32). Joint generation by
+            cross guidance needs latent conditions: without them ``joint`` generates the music
+            unconditionally, then the dance to it.
+        motion_representation: what the motion VAE learns: ``positions`` (the papers' keypoints) or
+            ``root_velocity`` (root-relative pose + the root's horizontal velocity, so a dancer can
+            travel; :mod:`momu.features.root_motion`, 3D skeletons only).
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
         music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
@@ -119,6 +133,10 @@ class MoMuConfig:
     window_hop_seconds: float = 2.0
     train_min_seconds: float | None = None
     train_lengths: str = "item"
+    motion_condition: Any = None
+    music_condition: Any = None
+    condition_latents: bool = True
+    motion_representation: str = "positions"
     bone_correction: bool = False
     bone_ratio: float = 1.3
     music_sampler: Any = None
@@ -141,8 +159,9 @@ def _plain(node: Any) -> Any:
     return plain
 
 
-def backbone_node(node: Any, latent_channels: int) -> dict[str, Any]:
-    """The backbone node with ``in_channels`` / ``cond_channels`` set to the latent width ``d``.
+def backbone_node(node: Any, latent_channels: int, cond_channels: int | None = None) -> dict[str, Any]:
+    """The backbone node with ``in_channels`` set to the latent width ``d`` and ``cond_channels`` to
+    ``cond_channels`` (default ``d``: the other modality's latent).
 
     Only fields the backbone's config dataclass has are set, so a plugin backbone whose config has
     neither is built as configured.
@@ -150,9 +169,13 @@ def backbone_node(node: Any, latent_channels: int) -> dict[str, Any]:
     plain = dict(_plain(node))
     entry = BACKBONES.get(plain["name"])
     fields = {f.name for f in dataclasses.fields(entry.config)} if entry.config is not None else set()
-    for key in ("in_channels", "cond_channels"):
+    widths = {
+        "in_channels": latent_channels,
+        "cond_channels": latent_channels if cond_channels is None else cond_channels,
+    }
+    for key, width in widths.items():
         if key in fields:
-            plain[key] = int(latent_channels)
+            plain[key] = int(width)
     return plain
 
 
@@ -175,8 +198,36 @@ def check_config(cfg: MoMuConfig) -> None:
         )
     if cfg.train_lengths not in ("item", "batch"):
         raise ValueError(f"method.train_lengths must be 'item' or 'batch', got {cfg.train_lengths!r}")
+    if not cfg.condition_latents and (cfg.motion_condition is None or cfg.music_condition is None):
+        raise ValueError(
+            "method.condition_latents: false needs both motion_condition and music_condition features "
+            "(each denoiser needs some condition)"
+        )
+    from momu.features.root_motion import check_representation
+
+    check_representation(cfg.motion_representation)
+    _check_prediction_types(cfg)
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
+
+
+def _prediction_type(node: Any) -> str:
+    plain = _plain(node)
+    if isinstance(plain, dict) and isinstance(plain.get("scheduler"), (dict, str)):
+        plain = _plain(plain["scheduler"])  # a sampler node: its scheduler
+    return str(plain.get("prediction_type", "epsilon")) if isinstance(plain, dict) else "epsilon"
+
+
+def _check_prediction_types(cfg: MoMuConfig) -> None:
+    """Every sampler's scheduler must read the denoisers' output as training defined it."""
+    trained = _prediction_type(cfg.scheduler)
+    for key in ("sampler", "music_sampler", "motion_sampler", "joint_sampler"):
+        node = getattr(cfg, key)
+        if node is not None and _prediction_type(node) != trained:
+            raise ValueError(
+                f"method.{key}.scheduler.prediction_type is {_prediction_type(node)!r} but the denoisers are "
+                f"trained with method.scheduler.prediction_type {trained!r}"
+            )
 
 
 def vocoder_node(node: Any) -> dict[str, Any]:

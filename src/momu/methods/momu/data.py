@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -123,13 +123,18 @@ class MoMuNormalizers:
         self.motion = motion
 
     @classmethod
-    def fit(cls, clips: Sequence[Clip], sample_rate: int) -> MoMuNormalizers:
-        """Fit on ``clips`` (their whole motion and music)."""
+    def fit(
+        cls, clips: Sequence[Clip], sample_rate: int, motion_of: Callable[[Clip], np.ndarray] | None = None
+    ) -> MoMuNormalizers:
+        """Fit on ``clips`` (their whole motion and music); ``motion_of(clip)`` gives the motion in the
+        model's representation (default ``clip.motion``)."""
         if not clips:
             raise ValueError("MoMuNormalizers.fit: no training clips")
         mels = [momu_mel(_waveform(c, sample_rate), sample_rate, MEL_CONFIG).T for c in clips]
         mel = Normalizer.fit(mels, feature_ndim=1)
-        motions = [np.asarray(c.motion, dtype=np.float64) for c in clips]
+        motions = [
+            np.asarray(c.motion if motion_of is None else motion_of(c), dtype=np.float64) for c in clips
+        ]
         j, d = motions[0].shape[1:]
         for c, m in zip(clips, motions):
             if m.shape[1:] != (j, d):
@@ -182,6 +187,9 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
     Item: ``{"motion": (T_m, J, D)}`` plus ``{"mel": (80, T_mel)}`` and/or ``{"wave": (S,)}``, with
     ``T_mel = n_z · music_frames_per_latent`` (or ``S = n_z · samples_per_latent``) and
     ``T_m = n_z · motion_frames_per_latent`` for ``n_z = rates.latent_frames(window_seconds)``.
+    With ``conditions`` (:class:`~momu.methods.momu.conditions.Conditions`) the motion is in its
+    representation and items carry the condition features ``"f_music"`` (θ_m's, from the music) and
+    ``"f_motion"`` (θ_a's, from the motion), ``(n_z, C)`` each, tracked over the whole clip.
     """
 
     def __init__(
@@ -194,6 +202,7 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
         *,
         need_mel: bool = True,
         need_wave: bool = False,
+        conditions: Any = None,
     ) -> None:
         if window_seconds <= 0 or hop_seconds <= 0:
             raise ValueError(
@@ -213,7 +222,9 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
             if duration + 1e-6 < seconds:
                 continue
             mel = norms.mel_of(audio, rates.sample_rate) if need_mel else None
-            motion = norms.motion.transform(np.asarray(clip.motion, dtype=np.float32))
+            raw = clip.motion if conditions is None else conditions.clip_motion(clip)
+            motion = norms.motion.transform(np.asarray(raw, dtype=np.float32))
+            tracks = _condition_tracks(conditions, clip, audio, rates.sample_rate)
             starts = np.arange(0.0, duration - seconds + 1e-6, hop_seconds)
             for start_s in starts:
                 first = int(round(start_s * rates.sample_rate / rates.hop_length))
@@ -234,6 +245,10 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
                     wave = audio[s0 : s0 + n_samples]
                     wave = np.pad(wave, (0, n_samples - len(wave)))
                     item["wave"] = torch.from_numpy(np.ascontiguousarray(wave, dtype=np.float32))
+                t0 = first * rates.hop_length / rates.sample_rate
+                for key, track in tracks.items():
+                    f = track.features(self.latent_frames, rates.latent_rate, start=t0)
+                    item[key] = torch.from_numpy(np.ascontiguousarray(f, dtype=np.float32))
                 self.items.append(item)
         if not self.items:
             raise ValueError(
@@ -246,6 +261,19 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
 
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
         return self.items[index]
+
+
+def _condition_tracks(conditions: Any, clip: Clip, audio: np.ndarray, sample_rate: int) -> dict[str, Any]:
+    """The clip's condition feature tracks: ``f_music`` from its music, ``f_motion`` from its dance."""
+    if conditions is None:
+        return {}
+    from momu.methods.momu.conditions import world_positions
+
+    tracks = {
+        "f_music": conditions.music_track(audio, sample_rate),
+        "f_motion": conditions.motion_track(world_positions(clip), clip.fps),
+    }
+    return {k: v for k, v in tracks.items() if v is not None}
 
 
 def crop_clip(clip: Clip, seconds: float, *, start: float = 0.0, suffix: str = "") -> Clip:

@@ -42,6 +42,7 @@ from momu.engine.context import RunContext, stage_key_hash
 from momu.features.bones import mean_bone_lengths
 from momu.features.preprocess import Normalizer
 from momu.features.skeletons import get_skeleton
+from momu.methods.momu.conditions import Conditions
 from momu.methods.momu.config import MoMuConfig, _plain, backbone_node, check_config
 from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select_split
 from momu.methods.momu.model import MoMuModel
@@ -97,10 +98,19 @@ class MoMu:
             music_input=vae.music_input,
         )
 
-    def backbone_nodes(self, latent_channels: int) -> tuple[dict[str, Any], dict[str, Any]]:
+    def backbone_nodes(
+        self, latent_channels: int, conditions: Conditions | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """θ_a's and θ_m's nodes, their condition widths from ``conditions`` (default: the latent width)."""
+        widths = (None, None)
+        if conditions is not None:
+            widths = (
+                conditions.cond_width("music", latent_channels),
+                conditions.cond_width("motion", latent_channels),
+            )
         return (
-            backbone_node(self.cfg.music_backbone, latent_channels),
-            backbone_node(self.cfg.motion_backbone, latent_channels),
+            backbone_node(self.cfg.music_backbone, latent_channels, widths[0]),
+            backbone_node(self.cfg.motion_backbone, latent_channels, widths[1]),
         )
 
     # ---------------------------------------------------------------- stage keys
@@ -120,6 +130,20 @@ class MoMu:
             "sample_rate": c.sample_rate,
             "window_seconds": c.window_seconds,
             "window_hop_seconds": c.window_hop_seconds,
+            **(
+                {"motion_representation": c.motion_representation}
+                if c.motion_representation != "positions"
+                else {}
+            ),
+        }
+        conditions = {
+            key: value
+            for key, value in (
+                ("motion_condition", _plain(c.motion_condition)),
+                ("music_condition", _plain(c.music_condition)),
+                ("condition_latents", c.condition_latents),
+            )
+            if value is not None and value is not True
         }
         k1 = {
             "stage": "music_vae",
@@ -149,6 +173,7 @@ class MoMu:
             "motion_backbone": _plain(c.motion_backbone),
             "scheduler": _plain(c.scheduler),
             "diffusion_loss": _plain(c.diffusion_loss),
+            **conditions,
             **({"train_min_seconds": c.train_min_seconds} if c.train_min_seconds is not None else {}),
             **({"train_lengths": c.train_lengths} if c.train_lengths != "item" else {}),
             "train": dataclasses.asdict(c.train_diffusion),
@@ -166,10 +191,16 @@ class MoMu:
             if not train_idx:
                 raise ValueError("the dataset has no 'train' clips with motion and audio")
             clips = [dataset[i] for i in train_idx]
-            return clips, MoMuNormalizers.fit(clips, c.sample_rate)
+            conds = Conditions.of(c, str(clips[0].skeleton or ""))
+            motion_of = None if conds.representation == "positions" else conds.clip_motion
+            return clips, MoMuNormalizers.fit(clips, c.sample_rate, motion_of)
 
         # every row and seed of a table trains on the same clips: built once per process
-        train_clips, norms = ctx.remember(("momu train clips", data_key, c.sample_rate), clips_and_norms)
+        train_clips, norms = ctx.remember(
+            ("momu train clips", data_key, c.sample_rate, c.motion_representation), clips_and_norms
+        )
+        conditions = Conditions.of(c, str(train_clips[0].skeleton or ""))
+        plain = not conditions.any_features and conditions.representation == "positions"
         torch.manual_seed(seed)  # initial weights are part of the stage (the key holds the seed)
         vae = self.build_encoder()
         rates = self.rates(vae)
@@ -186,6 +217,7 @@ class MoMu:
                     c.window_hop_seconds,
                     need_mel=vae.music_input == "mel",
                     need_wave=vae.music_input == "waveform",
+                    conditions=None if plain else conditions,
                 )
                 log.info("momu: %d training windows of %.2f s", len(cache["w"]), cache["w"].window_seconds)
             return cache["w"]
@@ -218,20 +250,32 @@ class MoMu:
         vae = vae.to("cpu").eval()
 
         # Diffusion: θ_a and θ_m on the aligned latents, Eq. 6.
-        music_node, motion_node = self.backbone_nodes(vae.latent_channels)
+        music_node, motion_node = self.backbone_nodes(vae.latent_channels, conditions)
         music_bb = build_component(music_node, "backbones")
         motion_bb = build_component(motion_node, "backbones")
         scheduler = build_component(c.scheduler, "schedulers")
         loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
         min_frames = None if c.train_min_seconds is None else rates.latent_frames(c.train_min_seconds)
         diffusion = DiffusionStage(
-            music_bb, motion_bb, loss, vae.latent_channels, min_frames, per_batch=c.train_lengths == "batch"
+            music_bb,
+            motion_bb,
+            loss,
+            vae.latent_channels,
+            min_frames,
+            per_batch=c.train_lengths == "batch",
+            condition_latents=c.condition_latents,
         )
 
         def latent_data() -> LatentDataset:
-            z_music, z_motion = encode_windows(vae, windows())
+            data = windows()
+            z_music, z_motion = encode_windows(vae, data)
             diffusion.set_statistics(z_music, z_motion)
-            return LatentDataset(z_music, z_motion)
+            features = {
+                key: torch.stack([item[key] for item in data.items])
+                for key in ("f_music", "f_motion")
+                if key in data.items[0]
+            }
+            return LatentDataset(z_music, z_motion, features)
 
         ctx.stage(
             "diffusion",
@@ -267,16 +311,25 @@ class MoMu:
 
 
 class LatentDataset(torch.utils.data.Dataset[dict[str, torch.Tensor]]):
-    """Paired raw latents ``(T_z, d)`` of the training windows."""
+    """Paired raw latents ``(T_z, d)`` of the training windows, with their condition features
+    (``f_music``, ``f_motion``: ``(N, T_z, C)``) when the model has any."""
 
-    def __init__(self, z_music: torch.Tensor, z_motion: torch.Tensor) -> None:
+    def __init__(
+        self,
+        z_music: torch.Tensor,
+        z_motion: torch.Tensor,
+        features: Mapping[str, torch.Tensor] | None = None,
+    ) -> None:
         self.z_music, self.z_motion = z_music, z_motion
+        self.features = dict(features or {})
 
     def __len__(self) -> int:
         return int(self.z_music.shape[0])
 
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
-        return {"z_music": self.z_music[index], "z_motion": self.z_motion[index]}
+        item = {"z_music": self.z_music[index], "z_motion": self.z_motion[index]}
+        item.update({key: value[index] for key, value in self.features.items()})
+        return item
 
 
 @torch.no_grad()

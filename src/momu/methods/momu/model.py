@@ -19,6 +19,7 @@ from momu.features.bones import correct_bone_lengths
 from momu.features.preprocess import Normalizer
 from momu.features.skeletons import get_skeleton
 from momu.io import read_json, write_json
+from momu.methods.momu.conditions import Conditions
 from momu.methods.momu.config import MoMuConfig, _plain, vocoder_node
 from momu.methods.momu.data import MoMuNormalizers, Rates
 from momu.parts_io import load_part, save_part
@@ -118,6 +119,7 @@ class MoMuModel:
         self._samplers: dict[str, Any] = {}
         self._joint: Any = None
         self._vocoder: Any = None
+        self._conditions: Conditions | None = None
 
     # ---------------------------------------------------------------- lazily built parts
     @property
@@ -151,6 +153,13 @@ class MoMuModel:
     @property
     def latent_channels(self) -> int:
         return int(self.vae.latent_channels)
+
+    @property
+    def conditions(self) -> Conditions:
+        """The denoisers' condition features and the motion representation (:mod:`.conditions`)."""
+        if self._conditions is None:
+            self._conditions = Conditions.of(self.cfg, self.skeleton)
+        return self._conditions
 
     # ---------------------------------------------------------------- encoders
     def _standardise(self, z: torch.Tensor, norm: Normalizer) -> torch.Tensor:
@@ -186,9 +195,34 @@ class MoMuModel:
         if m.ndim != 3:
             raise ValueError(f"motion must be (T, J, D), got shape {m.shape}")
         n = self.rates.latent_frames(m.shape[0] / float(fps))
-        x = torch.from_numpy(self.norms.motion.transform(m))[None]
+        rep = np.asarray(self.conditions.motion_in(m, float(fps)), dtype=np.float32)
+        x = torch.from_numpy(self.norms.motion.transform(rep))[None]
         z = self.vae.encode_motion(x, n).mode()[0]
         return self._standardise(z, self.latent_motion)
+
+    def condition_from_music(self, audio: np.ndarray, sample_rate: int) -> torch.Tensor:
+        """θ_m's condition ``(T_z, C)`` for a waveform: its music latent and/or its condition features."""
+        c = self.conditions
+        n = self.rates.latent_frames(len(audio) / float(sample_rate))
+        latent = (
+            self.encode_music(audio, sample_rate)
+            if (c.latents or c.from_music is None)
+            else torch.zeros(n, 0)
+        )
+        track = c.music_track(audio, sample_rate)
+        features = None if track is None else track.features(latent.shape[0], self.rates.latent_rate)
+        return c.combine(latent, features)
+
+    def condition_from_motion(self, motion: np.ndarray, fps: float) -> torch.Tensor:
+        """θ_a's condition ``(T_z, C)`` for world keypoints: the motion latent and/or its features."""
+        c = self.conditions
+        n = self.rates.latent_frames(np.asarray(motion).shape[0] / float(fps))
+        latent = (
+            self.encode_motion(motion, fps) if (c.latents or c.from_motion is None) else torch.zeros(n, 0)
+        )
+        track = c.motion_track(np.asarray(motion), float(fps))
+        features = None if track is None else track.features(latent.shape[0], self.rates.latent_rate)
+        return c.combine(latent, features)
 
     # ---------------------------------------------------------------- decoders
     @torch.no_grad()
@@ -208,7 +242,8 @@ class MoMuModel:
         """
         raw = self.latent_motion.inverse(z.float())[None]
         out = self.vae.decode_motion(raw)[0].cpu().numpy()
-        motion = np.asarray(self.norms.motion.inverse(out), dtype=np.float32)
+        rep = np.asarray(self.norms.motion.inverse(out), dtype=np.float32)
+        motion = np.asarray(self.conditions.motion_out(rep, self.rates.motion_fps), dtype=np.float32)
         if self.cfg.bone_correction and self.bone_lengths.size:
             motion = np.asarray(
                 correct_bone_lengths(
@@ -246,7 +281,7 @@ class MoMuModel:
 
         ``guidance_scale`` overrides the sampler's (``motion_sampler``, else ``sampler``).
         """
-        conds = [self.encode_music(a, sample_rate) for a in audios]
+        conds = [self.condition_from_music(a, sample_rate) for a in audios]
         return [self.decode_motion(z) for z in self._cfg_sample("motion", conds, seeds, guidance_scale)]
 
     def motion_to_music(
@@ -262,7 +297,7 @@ class MoMuModel:
         ``guidance_scale`` overrides the sampler's (``music_sampler``, else ``sampler``).
         """
         rates = [float(fps)] * len(motions) if isinstance(fps, (int, float)) else [float(f) for f in fps]
-        conds = [self.encode_motion(m, f) for m, f in zip(motions, rates)]
+        conds = [self.condition_from_motion(m, f) for m, f in zip(motions, rates)]
         return [self.decode_music(z) for z in self._cfg_sample("music", conds, seeds, guidance_scale)]
 
     @torch.no_grad()
@@ -275,6 +310,8 @@ class MoMuModel:
         """
         if len(seconds) != len(seeds):
             raise ValueError(f"seeds: {len(seeds)} seeds for {len(seconds)} lengths")
+        if not self.conditions.latents:
+            return self._joint_in_turn(seconds, seeds)
         d = self.latent_channels
         lengths = [self.rates.latent_frames(float(s)) for s in seconds]
         music_items = [_item_noise(n, d, 2 * s) for n, s in zip(lengths, seeds)]
@@ -292,6 +329,21 @@ class MoMuModel:
         return [
             (self.decode_music(z_a[i, :n]), self.decode_motion(z_m[i, :n])) for i, n in enumerate(lengths)
         ]
+
+    def _joint_in_turn(
+        self, seconds: Sequence[float], seeds: Sequence[int]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Joint generation of a model conditioned on features alone (no latent for cross guidance):
+        θ_a samples the music unconditionally (guidance scale 0: ε(∅)), then θ_m dances to it."""
+        d = self.latent_channels
+        conds = [
+            torch.zeros(n, self.conditions.cond_width("music", d))
+            for n in (self.rates.latent_frames(float(s)) for s in seconds)
+        ]
+        latents = self._cfg_sample("music", conds, [2 * s for s in seeds], 0.0)
+        audios = [self.decode_music(z) for z in latents]
+        motions = self.music_to_motion(audios, self.rates.sample_rate, [2 * s + 1 for s in seeds])
+        return list(zip(audios, motions))
 
     # ---------------------------------------------------------------- save / load
     def save(self, folder: str | Path) -> Path:

@@ -134,6 +134,7 @@ class DiffusionStage(nn.Module):
         latent: int,
         min_frames: int | None = None,
         per_batch: bool = False,
+        condition_latents: bool = True,
     ) -> None:
         super().__init__()
         self.music_backbone = music_backbone
@@ -141,6 +142,7 @@ class DiffusionStage(nn.Module):
         self.loss = loss
         self.min_frames = min_frames
         self.per_batch = per_batch
+        self.condition_latents = condition_latents
         for name in ("music_mean", "motion_mean"):
             self.register_buffer(name, torch.zeros(latent))
         for name in ("music_std", "motion_std"):
@@ -185,6 +187,13 @@ class DiffusionStage(nn.Module):
             return frames
         return int(torch.randint(shortest, frames + 1, ()))
 
+    def condition(self, latent: torch.Tensor, features: torch.Tensor | None) -> torch.Tensor:
+        """A denoiser's condition ``(B, T, C)``: the other latent, its features, or both (features last)."""
+        if features is None:
+            return latent
+        features = features[:, : latent.shape[1]].to(latent)
+        return torch.cat([latent, features], dim=-1) if self.condition_latents else features
+
     def forward(self, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
         """``(L_a + L_m, logs)``; the logs are detached tensors (read back only at logging steps)."""
         length = self.batch_length(batch["z_music"].shape[1])
@@ -192,10 +201,10 @@ class DiffusionStage(nn.Module):
         z_m = self.standardise(batch["z_motion"][:, :length], "motion")
         mask = self.length_mask(z_a.shape[0], z_a.shape[1], z_a.device)  # aligned latents: one length
         loss_a = self.loss(
-            self.music_backbone, z_a, z_m, x_mask=mask, cond_mask=mask
+            self.music_backbone, z_a, self.condition(z_m, batch.get("f_motion")), x_mask=mask, cond_mask=mask
         ).loss  # θ_a: motion → music
         loss_m = self.loss(
-            self.motion_backbone, z_m, z_a, x_mask=mask, cond_mask=mask
+            self.motion_backbone, z_m, self.condition(z_a, batch.get("f_music")), x_mask=mask, cond_mask=mask
         ).loss  # θ_m: music → motion
         return with_every_parameter(self, loss_a + loss_m), {
             "motion2music": loss_a.detach(),
