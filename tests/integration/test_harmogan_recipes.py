@@ -68,6 +68,9 @@ def test_fig9_and_fig11(tmp_path: Path) -> None:
     gt = f9["calibration"][0]["metrics"]
     assert gt["mse"] == 0.0 and gt["foot_error"] == 0.0
     assert "ground truth" in f9["rows"][0]["comparisons"]["fid"]  # seed-level floor
+    # like with like: the printed ground-truth pose FD is the floor every row is compared with
+    assert gt["fid"] == pytest.approx(f9["rows"][0]["seed_values"]["fid"]["ground truth"][0])
+    assert f9["rows"][0]["clip_ids"]["mse"][0] == f9["rows"][3]["clip_ids"]["mse"][0]  # paired by id
     f11 = _result("harmogan_fig11", tmp_path)
     pooled = next(r for r in f11["rows"] if r["id"] == "pooled")
     assert pooled["paper"] == {"agreement_h": 81.5} and 0.0 <= pooled["metrics"]["agreement_h"] <= 100.0

@@ -32,23 +32,24 @@ def test_t_interval_of_known_seed_values() -> None:
 def test_one_seed_has_no_interval_and_no_verdict() -> None:
     interval = t_interval([5.0])
     assert (interval.low, interval.high, interval.n) == (5.0, 5.0, 1)
-    assert verdict(paired_seed_interval([5.0], [1.0]), True) == "not distinguishable"
+    assert verdict(paired_seed_interval([5.0], [1.0]), True) == "cannot tell"
 
 
-def test_a_row_equal_to_shuffled_is_not_distinguishable() -> None:
+def test_a_row_equal_to_shuffled_cannot_be_told_apart() -> None:
     rng = np.random.default_rng(0)
     clips = rng.uniform(0, 100, size=(3, 40, 2))
     interval = paired_bootstrap(clips, clips.copy(), reducer="f1")
     assert interval.estimate == 0.0 and interval.low == 0.0 and interval.high == 0.0
-    assert verdict(interval, True) == "not distinguishable"
+    assert verdict(interval, True) == "cannot tell"  # a zero-width interval has nothing to exclude 0 with
 
 
-def test_a_constant_paired_difference_is_exact_and_distinguishable() -> None:
+def test_a_constant_paired_difference_has_a_zero_width_interval_and_no_verdict() -> None:
     base = np.random.default_rng(1).normal(size=(2, 30, 1))
     interval = paired_bootstrap(base + 0.5, base)
     assert interval.estimate == pytest.approx(0.5)
     assert interval.low == pytest.approx(0.5) and interval.high == pytest.approx(0.5)
-    assert verdict(interval, True) == "better" and verdict(interval, False) == "worse"
+    assert interval.degenerate and interval.clips == 30
+    assert verdict(interval, True) == "cannot tell" and verdict(interval, False) == "cannot tell"
 
 
 def test_bootstrap_is_deterministic_under_its_seed() -> None:
@@ -113,7 +114,7 @@ def test_compare_row_gives_per_clip_and_seed_level_verdicts() -> None:
     comparisons = compare_row(summary, columns)
     assert comparisons["f1"]["shuffled"]["verdict"] == "better"
     assert comparisons["f1"]["shuffled"]["seeds_agreeing"] == 3
-    assert comparisons["f1"]["other condition"]["verdict"] == "not distinguishable"
+    assert comparisons["f1"]["other condition"]["verdict"] == "cannot tell"  # identical: no spread
     fid = comparisons["fid"]["ground truth"]  # 10, 11, 12 vs a floor of 5: +6 ± t·1/√3
     assert fid["estimate"] == pytest.approx(6.0) and fid["verdict"] == "worse"
     assert summary["interval"]["fid"] == pytest.approx(T_975_2 / math.sqrt(3.0))
@@ -122,14 +123,19 @@ def test_compare_row_gives_per_clip_and_seed_level_verdicts() -> None:
 def test_orderings_count_only_distinguishable_pairs() -> None:
     columns = [Column("x", "X↑", True)]
     rows = []
+    rng = np.random.default_rng(5)
     for rid, level, paper in (("#1", 10.0, 1.0), ("#2", 10.0, 2.0), ("#3", 20.0, 3.0)):
-        s = Scores(metrics={"x": level})
-        s.add_clips("x", ROW, np.full((8, 1), level) + np.arange(8)[:, None] * 0.1)
-        summary = summarise_seeds([s, s])
-        rows.append({"id": rid, "paper": {"x": paper}, **summary})
+        seeds = []
+        for _ in range(3):
+            s = Scores(metrics={"x": level})
+            s.add_clips("x", ROW, level + rng.normal(0, 1, size=(12, 1)))
+            seeds.append(s)
+        rows.append({"id": rid, "paper": {"x": paper}, **summarise_seeds(seeds)})
     out = orderings(rows, columns)["x"]
     # #1 vs #2 tie (not distinguishable); #3 above both, as in the paper
     assert (out["total"], out["distinguishable"], out["agree"]) == (3, 2, 2)
+    pair = next(p for p in out["pairs"] if p["rows"] == ["#1", "#3"])
+    assert pair["outcome"] == "second higher" and pair["seeds_agreeing"] == 3 and len(pair["per_seed"]) == 3
 
 
 def test_scores_round_trip_json_and_reject_unknown_variants() -> None:

@@ -8,9 +8,10 @@ this module once per table::
 It copies ``results.json`` / ``results.md`` / ``config.yaml`` and the plots, and writes a README
 saying how the numbers were produced (command, wall time, peak memory, commit), how every row
 compares with the calibration rows and with its own model given another clip's condition (with
-95 % intervals; :mod:`momu.engine.table_report`), and how many distinguishable row pairs order as
-the paper's. A README without :data:`MARKER` on its first line is hand-written: it is kept and the
-summary goes to ``REPRODUCE.md`` beside it.
+95 % intervals and how many training seeds agree; :mod:`momu.engine.table_report`), and how many
+distinguishable row pairs order as the paper's. A README without :data:`MARKER` on its first line
+is hand-written: it is kept and the summary goes to ``REPRODUCE.md`` beside it. To bring a
+published folder up to a changed verdict rule without retraining, use :mod:`momu.engine.republish`.
 """
 
 from __future__ import annotations
@@ -54,8 +55,9 @@ def readme_text(result: dict[str, Any], command: str) -> str:
         f"- peak memory (main process): {prov['peak_memory_mib']:.0f} MiB",
         f"- commit: `{prov['git_commit']}`",
         "",
-        "`results.md` holds our numbers beside the paper's and the calibration rows; `results.json`",
-        "the same with the resolved config, provenance, per-seed and per-clip values. The synthetic",
+        "`results.md` holds our rows and the calibration rows, then the paper's numbers in a table of",
+        "their own; `results.json` the same with the resolved config, provenance, per-seed and per-clip",
+        "values. The synthetic",
         "data stand in for the paper's datasets, so compare our rows with the calibration rows and",
         "with each other, not the absolute values with the paper's.",
         cells_caption(result),

@@ -10,7 +10,11 @@ dict is accepted too: cells without per-clip evidence, which then get seed-level
   truth, the same model given another clip's condition, ...;
 * ``seed_values`` — per column key, a variant's value for this seed where the metric is
   distributional and has no per-clip value (the real-vs-real FID floor measured with this seed's
-  feature extractor, say).
+  feature extractor, say);
+* ``clip_ids`` — per column key, the identities of the clips behind its per-clip values, in their
+  order (``add_clips(..., ids=[clip.id for clip in clips])``). Every variant of a column is measured
+  on the same clips, so a column has one list; two rows are paired per clip only when their lists
+  are equal (:func:`momu.engine.table_results.orderings`).
 
 The table runner pools these over seeds into intervals and verdicts
 (:mod:`momu.engine.table_results`).
@@ -77,10 +81,23 @@ class Scores:
     clips: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     seed_values: dict[str, dict[str, float]] = field(default_factory=dict)
     artifacts: dict[str, str] = field(default_factory=dict)  # e.g. {"model": "models/momu-<hash>"}
+    clip_ids: dict[str, list[str]] = field(default_factory=dict)
 
-    def add_clips(self, key: str, variant: str, values: np.ndarray | Sequence[Sequence[float]]) -> None:
+    def add_clips(
+        self,
+        key: str,
+        variant: str,
+        values: np.ndarray | Sequence[Sequence[float]],
+        ids: Sequence[str] | None = None,
+    ) -> None:
         """Record ``(N, K)`` per-clip components of column ``key`` for ``variant`` (:data:`ROW` or a
-        :data:`VARIANTS` name)."""
+        :data:`VARIANTS` name), and optionally the ``N`` clips' ids.
+
+        Raises:
+            ValueError: an unknown variant, a bad shape, ids of another length than the values, or
+                ids other than those already recorded for ``key`` (every variant of a column is
+                measured on the same clips).
+        """
         if variant != ROW and variant not in VARIANTS:
             raise ValueError(f"unknown comparison variant {variant!r}; valid: {ROW}, {', '.join(VARIANTS)}")
         arr = np.asarray(values, dtype=np.float64)
@@ -88,6 +105,13 @@ class Scores:
             arr = arr[:, None]
         if arr.ndim != 2:
             raise ValueError(f"per-clip values of {key!r} must be (N, K), got shape {arr.shape}")
+        if ids is not None:
+            names = [str(i) for i in ids]
+            if len(names) != len(arr):
+                raise ValueError(f"clip ids of {key!r}: {len(names)} ids for {len(arr)} clips")
+            if key in self.clip_ids and self.clip_ids[key] != names:
+                raise ValueError(f"clip ids of {key!r}: {variant!r} was measured on other clips than before")
+            self.clip_ids[key] = names
         self.clips.setdefault(key, {})[variant] = arr
 
     def add_seed_value(self, key: str, variant: str, value: float) -> None:
@@ -102,6 +126,7 @@ class Scores:
             "clips": {k: {v: a.tolist() for v, a in d.items()} for k, d in self.clips.items()},
             "seed_values": {k: dict(d) for k, d in self.seed_values.items()},
             "artifacts": dict(self.artifacts),
+            "clip_ids": {k: list(v) for k, v in self.clip_ids.items()},
         }
 
     @classmethod
@@ -117,6 +142,7 @@ class Scores:
                 for k, d in data.get("seed_values", {}).items()
             },
             artifacts={str(k): str(v) for k, v in data.get("artifacts", {}).items()},
+            clip_ids={str(k): [str(i) for i in v] for k, v in data.get("clip_ids", {}).items()},
         )
 
 

@@ -11,7 +11,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from momu.engine.scores import VARIANTS
-from momu.engine.table_results import outcome_phrase
+from momu.engine.statistics import CANNOT_TELL, MIN_CLIPS
+from momu.engine.table_results import columns_from_json, orderings, outcome_phrase
 
 __all__ = [
     "fmt",
@@ -19,6 +20,8 @@ __all__ = [
     "render_markdown",
     "verdict_lines",
     "ordering_lines",
+    "pairwise_lines",
+    "another_scale",
     "cells_caption",
     "size_line",
     "stale_stage_lines",
@@ -51,7 +54,10 @@ def cells_caption(result: Mapping[str, Any]) -> str:
             f"Cells: mean over the {len(seeds)} training seeds {seeds} ± the half-width of the 95 % "
             "Student-t interval over seeds."
         )
-    return f"Cells: one training seed ({seeds[0]}); no interval can be given."
+    return (
+        f"Cells: one training seed ({seeds[0]}): no interval over seeds, and no comparison gets a "
+        "verdict (that needs at least 2 seeds)."
+    )
 
 
 def size_line(result: Mapping[str, Any]) -> str:
@@ -70,10 +76,35 @@ def size_line(result: Mapping[str, Any]) -> str:
     return f"Per-clip comparisons pair {clips} evaluation clips per row and seed."
 
 
+def _seeds_text(rec: Mapping[str, Any]) -> str:
+    """``3/3 seeds``, ``the same for every seed``, or the per-seed differences when seeds disagree."""
+    per_seed = list(rec.get("per_seed", []))
+    if "disagree" in rec.get("reason", ""):
+        return "seeds disagree: " + ", ".join(fmt(d, True) for d in per_seed)
+    if rec.get("seed_independent"):
+        return "the same for every seed"
+    return f"{rec['seeds_agreeing']}/{len(per_seed)} seeds" if len(per_seed) > 1 else ""
+
+
 def _interval_text(rec: Mapping[str, Any]) -> str:
-    seeds = len(rec.get("per_seed", []))
-    agree = f", {rec['seeds_agreeing']}/{seeds} seeds" if seeds > 1 else ""
-    return f"{fmt(rec['estimate'], True)} [{fmt(rec['low'], True)}, {fmt(rec['high'], True)}]{agree}"
+    """What a verdict rests on: the interval and the seeds, or for *cannot tell* why, and no interval."""
+    estimate = fmt(rec["estimate"], True)
+    if rec["verdict"] == CANNOT_TELL:
+        return f"{rec.get('reason') or 'no spread'}; difference {estimate}"
+    seeds = _seeds_text(rec)
+    return f"{estimate} [{fmt(rec['low'], True)}, {fmt(rec['high'], True)}]" + (
+        f"; {seeds}" if seeds.startswith("seeds disagree") else f", {seeds}" if seeds else ""
+    )
+
+
+RULE = (
+    "A verdict (anything but *not distinguishable* or *cannot tell*) needs the interval to exclude 0 "
+    "**and** every training seed's own difference to share its sign; where the seeds disagree, their "
+    "differences are printed. *Cannot tell*: one training seed, fewer than "
+    f"{MIN_CLIPS} clips, or an interval of zero width (one value, or a difference that never varies). "
+    "A difference that is the same for every seed does not depend on training: its clip interval "
+    "alone decides (`momu.engine.statistics`, docs/statistics.md)."
+)
 
 
 def verdict_lines(result: Mapping[str, Any]) -> list[str]:
@@ -99,17 +130,24 @@ def verdict_lines(result: Mapping[str, Any]) -> list[str]:
     intro = (
         "Differences (row − comparison) with their 95 % intervals: per-clip comparisons are paired on "
         "the same clips and pooled over seeds by a clip-level bootstrap of the cell statistic; "
-        "distributional metrics (FID, FAD, Diversity) are compared per seed with a t-interval. "
-        "A verdict other than *not distinguishable* means the interval excludes 0 "
-        "(`momu.engine.statistics`)."
+        "distributional metrics (FID, FAD, Diversity) are compared per seed with a t-interval. " + RULE
     )
     variants = sorted({v for r in result["rows"] for d in r.get("comparisons", {}).values() for v in d})
     legend = [f"*{v}*: {VARIANTS[v].label}" for v in variants if v in VARIANTS]
     return ["", "## Verdicts", "", intro, "Comparisons: " + "; ".join(legend) + ".", "", *lines]
 
 
+def _pair_line(pair: Mapping[str, Any], higher_is_better: bool) -> str:
+    """``#7 − #1: +9.2 [+4.1, +14], 3/3 seeds: #7 better (the paper: the same order)``."""
+    a, b = pair["rows"]
+    better = a if (pair["estimate"] > 0) == higher_is_better else b
+    order = "the same order" if pair["agrees"] else "the other order"
+    said = _interval_text({**pair, "verdict": "decided"})
+    return f"  - {a} − {b}: {said}: {better} better (the paper: {order})"
+
+
 def ordering_lines(result: Mapping[str, Any]) -> list[str]:
-    """Per column, how many row pairs are distinguishable and how many of those order as the paper's."""
+    """Per column, how many row pairs are distinguishable, which, and how many order as the paper's."""
     orders = result.get("orderings", {})
     if not orders:
         return []
@@ -119,14 +157,62 @@ def ordering_lines(result: Mapping[str, Any]) -> list[str]:
         if rec is None:
             continue
         d, agree, total = rec["distinguishable"], rec["agree"], rec["total"]
-        tail = f"; {agree} of those {d} ordered as in the paper" if d else ""
-        lines.append(f"- {col['label']}: {d} of {total} row pairs distinguishable{tail}")
+        text = f"- {col['label']}: {d} of {total} row pairs distinguishable"
+        text += f"; {agree} of those {d} ordered as in the paper" if d else ""
+        if rec.get("seeds_disagree"):
+            text += f"; {rec['seeds_disagree']} more exclude 0 in the interval but their seeds disagree"
+        if rec.get("cannot_tell"):
+            text += f"; cannot tell for {rec['cannot_tell']}"
+        if rec.get("other_clips"):
+            text += f"; {rec['other_clips']} compared per seed only (the rows were scored on different clips)"
+        lines.append(text)
+        lines += [
+            _pair_line(p, col["higher_is_better"]) for p in rec.get("pairs", []) if p["distinguishable"]
+        ]
     lines.append("")
     lines.append(
-        "A pair is distinguishable when the interval of its difference excludes 0; only those are "
-        "counted, since an ordering read from a difference within noise says nothing."
+        "A pair is distinguishable when the interval of its difference excludes 0 and every seed's own "
+        "difference has the same sign; only those are counted (and listed), since an ordering read "
+        "from a difference within noise, or one that another training seed reverses, says nothing. "
+        "Pairs are paired per clip where both rows were scored on the same clips, else per seed; "
+        "each pair's per-seed differences are in results.json (`orderings`)."
     )
     return lines
+
+
+def pairwise_lines(result: Mapping[str, Any]) -> tuple[list[str], dict[str, list[dict[str, Any]]]]:
+    """Every pair of our rows per column (HarmoGAN's figures, which have no paper values to order
+    against): the lines of ``results.md``'s "Pairwise comparisons of our rows" and ``pairwise.json``.
+
+    :func:`~momu.engine.table_results.orderings` over placeholder paper cells, so that every pair is
+    compared; only the intervals and outcomes are used.
+    """
+    rows = [
+        {**r, "paper": {c["key"]: float(i) for c in result["columns"]}} for i, r in enumerate(result["rows"])
+    ]
+    pairs = orderings(rows, columns_from_json(result))
+    names = {r["id"]: r["name"] for r in result["rows"]}
+    lines = ["", "## Pairwise comparisons of our rows", ""]
+    lines.append(
+        "Difference (first − second) with its 95 % interval (paired clip bootstrap pooled over seeds; "
+        "per seed for distributional cells); *distinguishable* when the interval excludes 0 and every "
+        "seed's own difference shares its sign (`momu.engine.statistics`)."
+    )
+    for col in result["columns"]:
+        rec = pairs.get(col["key"])
+        if not rec:
+            continue
+        lines += ["", f"- {col['label']}:"]
+        for p in rec["pairs"]:
+            a, b = p["rows"]
+            if p["outcome"] == CANNOT_TELL:
+                said = f"{p['estimate']:+.4g} (cannot tell: {p['reason']})"
+            else:
+                seeds = _seeds_text(p)
+                outcome = "distinguishable" if p["distinguishable"] else "not distinguishable"
+                said = f"{p['estimate']:+.4g} [{p['low']:+.4g}, {p['high']:+.4g}] ({outcome}, {seeds})"
+            lines.append(f"  - {names[a]} − {names[b]}: {said}")
+    return lines, {k: v["pairs"] for k, v in pairs.items()}
 
 
 def stale_stage_lines(result: Mapping[str, Any]) -> list[str]:
@@ -148,27 +234,45 @@ def stale_stage_lines(result: Mapping[str, Any]) -> list[str]:
 
 
 def _table(result: Mapping[str, Any]) -> list[str]:
+    """Our rows, then the calibration rows: our cells only (the paper's are in :func:`_paper_table`)."""
     cols = list(result["columns"])
-    header = "| id | row | " + " | ".join(f"{c['label']} ours | {c['label']} paper" for c in cols) + " |"
-    lines = [header, "|" + "---|" * (2 + 2 * len(cols))]
+    lines = ["| id | row | " + " | ".join(c["label"] for c in cols) + " |", "|" + "---|" * (2 + len(cols))]
     for row in result["rows"]:
-        cells = []
-        for c in cols:
-            cells += [
-                cell(row["metrics"], row.get("interval", {}), c["key"]),
-                fmt(row["paper"].get(c["key"])),
-            ]
+        cells = [cell(row["metrics"], row.get("interval", {}), c["key"]) for c in cols]
         lines.append(f"| {row['id']} | {row['name']} | " + " | ".join(cells) + " |")
     for row in result["calibration"]:
-        cells = []
-        for c in cols:
-            cells += [cell(row["metrics"], row.get("interval", {}), c["key"]), "—"]
+        cells = [cell(row["metrics"], row.get("interval", {}), c["key"]) for c in cols]
         lines.append(f"| cal | {row['name']} (calibration) | " + " | ".join(cells) + " |")
+    return lines
+
+
+def another_scale(result: Mapping[str, Any]) -> bool:
+    """Whether the paper's numbers are on another scale than ours: every preset but ``paper``, and
+    any run on the synthetic stand-in data, measures other data with smaller models."""
+    return result.get("preset") != "paper" or result.get("data") == "synth"
+
+
+def _paper_table(result: Mapping[str, Any]) -> list[str]:
+    """The paper's printed cells of our rows and of its baselines (not re-run), labelled by scale."""
+    cols = list(result["columns"])
+    ours = [r for r in result["rows"] if any(r["paper"].get(c["key"]) is not None for c in cols)]
+    if not ours and not result["baselines"]:
+        return []
+    head = "## The paper's numbers" + (" (another scale)" if another_scale(result) else "")
+    caption = (
+        f"As the paper prints them, on its datasets with its models: another scale than ours (data "
+        f"`{result['data']}`, preset `{result['preset']}`), so compare the ordering of rows, not values."
+        if another_scale(result)
+        else "As the paper prints them, beside our cells above."
+    )
+    lines = ["", head, "", caption, "", "| id | row | " + " | ".join(c["label"] for c in cols) + " |"]
+    lines.append("|" + "---|" * (2 + len(cols)))
+    for row in ours:
+        cells = " | ".join(fmt(row["paper"].get(c["key"])) for c in cols)
+        lines.append(f"| {row['id']} | {row['name']} | {cells} |")
     for row in result["baselines"]:
-        cells = []
-        for c in cols:
-            cells += ["not re-run", fmt(row["paper"].get(c["key"]))]
-        lines.append(f"| paper | {row['name']} | " + " | ".join(cells) + " |")
+        cells = " | ".join(fmt(row["paper"].get(c["key"])) for c in cols)
+        lines.append(f"| paper | {row['name']} (not re-run) | {cells} |")
     return lines
 
 
@@ -188,7 +292,8 @@ def _artifact_lines(result: Mapping[str, Any]) -> list[str]:
 
 
 def render_markdown(result: Mapping[str, Any], notes: Sequence[str] = ()) -> str:
-    """``results.md``: cells with intervals beside the paper's, calibration rows, verdicts, provenance."""
+    """``results.md``: our rows and the calibration rows, then the paper's numbers (labelled by scale),
+    verdicts, orderings, notes and provenance."""
     prov = result["provenance"]
     lines = [
         f"# {result['title']}",
@@ -198,12 +303,14 @@ def render_markdown(result: Mapping[str, Any], notes: Sequence[str] = ()) -> str
         cells_caption(result),
         size_line(result),
         "",
+        "## Our rows and the calibration rows",
+        "",
         *_table(result),
         "",
         "Arrows: " + ", ".join(f"{c['label']} {_direction(c)} is better" for c in result["columns"]) + ".",
-        "Baseline rows marked *not re-run* are the paper's numbers, reported for reference.",
         "Calibration rows use the same metric code on ground truth and on ground truth with music and "
         "motion shuffled across clips: they show what *good* and *chance* are on this data.",
+        *_paper_table(result),
         *verdict_lines(result),
         *ordering_lines(result),
         *stale_stage_lines(result),

@@ -1,28 +1,49 @@
 """From per-seed :class:`~momu.engine.scores.Scores` to a table's cells, comparisons and orderings.
 
-Pure functions over plain data, shared by the table runner (``results.json`` / ``results.md``) and
-the publishing step (``reproductions/<table>/README.md``), so a verdict is computed in one place.
-The statistics are :mod:`momu.engine.statistics`'.
+Pure functions over plain data, shared by the table runner (``results.json`` / ``results.md``), the
+publishing step (``reproductions/<table>/README.md``) and the republishing step
+(:mod:`momu.engine.republish`, which recomputes every verdict from a ``results.json``), so a verdict
+is computed in one place. The statistics and the rule of a verdict are :mod:`momu.engine.statistics`'.
+
+Every comparison record holds the interval, the outcome (``verdict``) and why there is none
+(``reason``), each seed's own difference (``per_seed``), how many seeds share the estimate's sign
+(``seeds_agreeing``), whether the difference depends on the seed at all (``seed_independent``) and
+the t-interval over the per-seed differences (``per_seed_interval``, for information).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
 from momu.engine.scores import ROW, VARIANTS, Scores
 from momu.engine.statistics import (
+    CANNOT_TELL,
     Interval,
+    judge,
     paired_bootstrap,
     paired_seed_interval,
     reduce_components,
     t_interval,
-    verdict,
 )
 
-__all__ = ["ColumnLike", "summarise_seeds", "compare_row", "orderings", "outcome_phrase"]
+__all__ = [
+    "ColumnLike",
+    "StoredColumn",
+    "columns_from_json",
+    "summarise_seeds",
+    "compare_row",
+    "orderings",
+    "outcome_phrase",
+    "REFERENCE_VARIANTS",
+]
+
+REFERENCE_VARIANTS = ("ground truth", "shuffled")
+"""Variants that depend on the clips only: where two rows without clip ids both carry one, its
+per-clip values must agree clip by clip before the rows are paired by index (:func:`orderings`)."""
 
 
 class ColumnLike(Protocol):
@@ -38,11 +59,37 @@ class ColumnLike(Protocol):
     def closer_to(self) -> str | None: ...
 
 
+@dataclass(frozen=True)
+class StoredColumn:
+    """A column as ``results.json`` stores it (``columns[]``), for recomputing comparisons."""
+
+    key: str
+    label: str
+    higher_is_better: bool
+    reducer: str = "mean"
+    closer_to: str | None = None
+
+
+def columns_from_json(result: Mapping[str, Any]) -> list[StoredColumn]:
+    """The columns of a ``results.json``."""
+    return [
+        StoredColumn(
+            str(c["key"]),
+            str(c["label"]),
+            bool(c["higher_is_better"]),
+            str(c.get("reducer") or "mean"),
+            c.get("closer_to"),
+        )
+        for c in result["columns"]
+    ]
+
+
 def summarise_seeds(per_seed: Sequence[Scores]) -> dict[str, Any]:
     """Cells (mean over seeds), their 95 % half-widths, the per-seed cells and the per-clip arrays.
 
     ``per_clip[key][variant]`` is ``(S, N, K)`` when every seed recorded it with the same shape;
-    ``seed_values[key][variant]`` is a list over seeds.
+    ``seed_values[key][variant]`` is a list over seeds; ``clip_ids[key]`` the ``(S, N)`` clip ids
+    when every seed recorded them (a seed may crop other windows of the same clips).
     """
     keys = sorted({k for s in per_seed for k in s.metrics})
     metrics, half = {}, {}
@@ -63,7 +110,12 @@ def summarise_seeds(per_seed: Sequence[Scores]) -> dict[str, Any]:
             values = [s.seed_values.get(key, {}).get(variant) for s in per_seed]
             if all(v is not None for v in values):
                 seed_values.setdefault(key, {})[variant] = [float(v) for v in values]  # type: ignore[arg-type]
-    return {
+    clip_ids = {
+        key: [list(s.clip_ids[key]) for s in per_seed]
+        for key in sorted(per_clip)
+        if all(key in s.clip_ids for s in per_seed)
+    }
+    out = {
         "metrics": metrics,
         "interval": half,
         "per_seed": [s.metrics for s in per_seed],
@@ -71,18 +123,27 @@ def summarise_seeds(per_seed: Sequence[Scores]) -> dict[str, Any]:
         "seed_values": seed_values,
         "artifacts": [dict(s.artifacts) for s in per_seed],
     }
+    if clip_ids:
+        out["clip_ids"] = clip_ids
+    return out
 
 
 def _record(interval: Interval, higher_is_better: bool, per_seed_diffs: Sequence[float]) -> dict[str, Any]:
-    outcome = verdict(interval, higher_is_better)
-    sign = np.sign(interval.estimate)
-    agreeing = int(sum(np.sign(d) == sign for d in per_seed_diffs)) if sign != 0 else 0
-    return {
+    """A comparison as ``results.json`` stores it (module docstring)."""
+    diffs = [float(d) for d in per_seed_diffs]
+    judgement = judge(interval, diffs, higher_is_better)
+    rec: dict[str, Any] = {
         **interval.as_dict(),
-        "verdict": outcome,
-        "per_seed": [float(d) for d in per_seed_diffs],
-        "seeds_agreeing": agreeing,
+        "verdict": judgement.outcome,
+        "reason": judgement.reason,
+        "per_seed": diffs,
+        "seeds_agreeing": judgement.seeds_agreeing,
+        "seed_independent": judgement.seed_independent,
     }
+    if len(diffs) > 1:
+        seeds = t_interval(diffs)
+        rec["per_seed_interval"] = [seeds.low, seeds.high]
+    return rec
 
 
 def compare_row(
@@ -137,7 +198,8 @@ def _compare_closer(summary: Mapping[str, Any], key: str, reference: str) -> dic
     diffs = [c - r for c, r in zip(cells, ref)]  # type: ignore[operator]
     interval = t_interval(diffs)
     rec = _record(interval, True, diffs)
-    rec["verdict"] = "worse" if verdict(interval, True) != "not distinguishable" else "not distinguishable"
+    if rec["verdict"] in ("better", "worse"):
+        rec["verdict"] = "worse"  # any distinguishable distance from the reference
     out[reference] = {**rec, "method": f"paired {interval.method}"}
     for variant, other in values.items():
         if variant == reference or len(other) != len(cells):
@@ -154,6 +216,8 @@ def _compare_closer(summary: Mapping[str, Any], key: str, reference: str) -> dic
 def outcome_phrase(variant: str, outcome: str) -> str:
     """The words of a verdict: ``"beats shuffled"``, ``"follows its condition"``, …"""
     v = VARIANTS[variant]
+    if outcome == CANNOT_TELL:
+        return f"cannot tell against {variant}"
     return {"better": v.better, "worse": v.worse}.get(outcome, v.same)
 
 
@@ -163,10 +227,13 @@ def orderings(
     """Per column: which pairs of our rows differ distinguishably, and whether they order as in the paper.
 
     Only pairs where both rows have a paper cell (and the paper's cells differ) count; columns with
-    ``closer_to`` have no ordering (it would need the paper's reference value for the pair). A pair is
-    *distinguishable* when the interval of the difference of our cells excludes 0 (paired per clip
-    when both rows have per-clip components on the same clips, else per seed); the agreement count
-    is over distinguishable pairs only.
+    ``closer_to`` have no ordering (it would need the paper's reference value for the pair). A pair's
+    difference ``first − second`` is paired per clip when both rows were scored on the same clips
+    (:func:`_same_clips`), else per seed; it is *distinguishable* when :func:`~momu.engine.statistics.judge`
+    gives a verdict (the interval excludes 0 and every seed agrees in sign). Each pair records its
+    per-seed differences, how many seeds agree, its ``outcome`` (``"first higher"``, ``"second
+    higher"``, ``"not distinguishable"`` or ``"cannot tell"``, with its ``reason``) and how it was
+    paired (``pairing``); the agreement count is over distinguishable pairs only.
     """
     out: dict[str, dict[str, Any]] = {}
     for col in columns:
@@ -179,16 +246,22 @@ def orderings(
                 pa, pb = float(a["paper"][col.key]), float(b["paper"][col.key])
                 if pa == pb:
                     continue
-                interval = _pair_interval(a, b, col, bootstrap_seed)
-                if interval is None:
+                found = _pair_interval(a, b, col, bootstrap_seed)
+                if found is None:
                     continue
-                distinct = verdict(interval, True) != "not distinguishable"
+                interval, diffs, pairing = found
+                rec = _record(interval, True, diffs)
+                verdict = rec.pop("verdict")
+                decided = verdict in ("better", "worse")
+                outcome = {"better": "first higher", "worse": "second higher"}.get(verdict, verdict)
                 pairs.append(
                     {
                         "rows": [a["id"], b["id"]],
-                        **interval.as_dict(),
-                        "distinguishable": distinct,
-                        "agrees": distinct and (interval.estimate > 0) == (pa > pb),
+                        **rec,
+                        "outcome": outcome,
+                        "pairing": pairing,
+                        "distinguishable": decided,
+                        "agrees": decided and (interval.estimate > 0) == (pa > pb),
                     }
                 )
         if pairs:
@@ -197,18 +270,65 @@ def orderings(
                 "total": len(pairs),
                 "distinguishable": sum(p["distinguishable"] for p in pairs),
                 "agree": sum(p["agrees"] for p in pairs),
+                "seeds_disagree": sum("disagree" in p["reason"] for p in pairs),
+                "cannot_tell": sum(p["outcome"] == CANNOT_TELL for p in pairs),
+                "other_clips": sum(p["pairing"].startswith("per seed (the rows") for p in pairs),
             }
     return out
 
 
+def _same_clips(a: Mapping[str, Any], b: Mapping[str, Any], key: str) -> tuple[bool, str]:
+    """Whether rows ``a`` and ``b`` were scored on the same clips in column ``key``, and how that is known.
+
+    With clip ids (``clip_ids[key]``, :class:`~momu.engine.scores.Scores`): the ids must be equal.
+    Without (results written before clip ids were recorded): the rows' per-clip arrays must have the
+    same shape, and where both carry a :data:`REFERENCE_VARIANTS` variant — values that depend on
+    the clips only — its values must agree clip by clip; with no such variant the rows are paired
+    in index order, as the recipe lists its evaluation clips, and the pairing says so.
+
+    Raises:
+        ValueError: one row has clip ids and the other has none (the pairing cannot be checked).
+    """
+    ia, ib = a.get("clip_ids", {}).get(key), b.get("clip_ids", {}).get(key)
+    if (ia is None) != (ib is None):
+        raise ValueError(
+            f"column {key!r}: row {a['id']} has clip ids and row {b['id']} has none: "
+            "cannot pair them per clip"
+        )
+    if ia is not None:
+        return (True, "per clip (clip ids)") if ia == ib else (False, "per seed (the rows' clip ids differ)")
+    ca, cb = a["per_clip"][key][ROW], b["per_clip"][key][ROW]
+    if np.shape(ca) != np.shape(cb):
+        return False, "per seed (the rows were scored on different numbers of clips)"
+    for variant in REFERENCE_VARIANTS:
+        ra, rb = a["per_clip"][key].get(variant), b["per_clip"][key].get(variant)
+        if ra is None or rb is None:
+            continue
+        if np.shape(ra) == np.shape(rb) and np.array_equal(np.asarray(ra), np.asarray(rb)):
+            return True, f"per clip (index order; the rows' {variant} values agree clip by clip)"
+        return False, f"per seed (the rows' {variant} values differ: not the same clips)"
+    return True, "per clip (index order; no clip ids recorded)"
+
+
 def _pair_interval(
     a: Mapping[str, Any], b: Mapping[str, Any], col: ColumnLike, bootstrap_seed: int
-) -> Interval | None:
+) -> tuple[Interval, list[float], str] | None:
+    """The interval of ``a − b`` in ``col``, the per-seed differences and how the rows were paired."""
     ca, cb = a["per_clip"].get(col.key, {}).get(ROW), b["per_clip"].get(col.key, {}).get(ROW)
-    if ca is not None and cb is not None and np.shape(ca) == np.shape(cb):
-        return paired_bootstrap(np.asarray(ca), np.asarray(cb), reducer=col.reducer, seed=bootstrap_seed)
+    how = "per seed (no per-clip values)"
+    if ca is not None and cb is not None:
+        same, how = _same_clips(a, b, col.key)
+        if same:
+            xa, xb = np.asarray(ca), np.asarray(cb)
+            ids_a, ids_b = a.get("clip_ids", {}).get(col.key), b.get("clip_ids", {}).get(col.key)
+            interval = paired_bootstrap(
+                xa, xb, reducer=col.reducer, seed=bootstrap_seed, row_ids=ids_a, other_ids=ids_b
+            )
+            diffs = reduce_components(xa, col.reducer) - reduce_components(xb, col.reducer)
+            return interval, diffs.tolist(), how
     sa = [s.get(col.key) for s in a["per_seed"]]
     sb = [s.get(col.key) for s in b["per_seed"]]
     if len(sa) != len(sb) or any(v is None for v in (*sa, *sb)):
         return None
-    return paired_seed_interval(sa, sb)  # type: ignore[arg-type]
+    interval = paired_seed_interval(sa, sb)  # type: ignore[arg-type]
+    return interval, [float(x - y) for x, y in zip(sa, sb)], how  # type: ignore[operator]

@@ -13,10 +13,13 @@ MoFusion Eq. 4: ``L_t = L_da + λ_k^(t) L_k`` with ``λ_k^(t) = ᾱ_t`` per samp
 * ``L_m`` (Eq. 7) — x₀ supervision ``‖M̂⁽⁰⁾ − M⁽⁰⁾‖`` on the pose vectors M (§3: root
   translation + root-relative joints, de-standardised, metres), M̂⁽⁰⁾ from Eq. 5 (the scheduler's
   ``predict_x0``, :attr:`DiffusionLossOutput.x0_pred`): the squared error, averaged over valid
-  frames and the 3J channels (metres²). With the squared norm and no
-  normalisation, ``ᾱ_t ‖x̂₀ − x₀‖² = (1 − ᾱ_t) ‖ε̂ − ε‖²`` exactly, so the scheduled ``L_m`` is
-  the data term reweighted by ``1 − ᾱ_t`` — the reason ``λ_m`` is a free choice (the paper does
-  not give λ_a or λ_m; both default to 1).
+  frames and the 3J channels (metres²). In the model's standardised space
+  ``ᾱ_t ‖x̂₀ − x₀‖² = (1 − ᾱ_t) ‖ε̂ − ε‖²`` holds exactly, but ``L_m`` is computed after
+  de-standardising, so the scheduled ``ᾱ_t L_m`` is ``(1 − ᾱ_t)`` times the ε error with each
+  channel weighted by its data variance ``σ_c²`` (metres²), whereas ``L_da`` weighs every
+  standardised channel alike: a reweighted data term, reweighted per time step *and* per channel
+  (a plain ``1 − ᾱ_t`` reweighting only if every channel had the same σ). ``λ_m`` is therefore a
+  free choice (the paper does not give λ_a or λ_m; both default to 1).
 
 The model sees a standardised pose vector; :meth:`ScheduledKinematicLoss.set_statistics` stores the
 per-channel mean/std (buffers), and x̂₀ is de-standardised and decoded to positions

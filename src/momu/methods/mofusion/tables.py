@@ -6,8 +6,8 @@ Presets:
 * ``smoke`` — every row end-to-end in seconds (a dozen short clips, a tiny U-Net, a few steps);
   the numbers mean nothing.
 * ``cpu`` — ``recipes/configs/mofusion.yaml`` as is: synth_dance SMPL-24 (60 fps; the model at
-  20 fps), 4 s training windows, a 0.4 M-parameter U-Net, 1500 steps, DDIM-50, the paper's 10 s /
-  20 s generation lengths scaled to 4 s / 8 s.
+  20 fps), 4 s training windows, a 0.48 M-parameter U-Net, 600 training steps (batch 16), DDIM-50,
+  the paper's 10 s / 20 s generation lengths scaled to 4 s / 8 s.
 * ``paper`` — ``recipes/configs/mofusion_paper.yaml``, a complete file (every node replaced, nothing
   inherited from the cpu YAML): MoFusion supp. B (T = 1000 linear β, 16 heads, cross-attention 1024,
   AdamW 5e-4 batch 32 / 2e-4 batch 128 + 500 warm-up for text), 1000-step DDPM, no CFG, 10 s / 20 s.
