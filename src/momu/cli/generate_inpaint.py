@@ -330,6 +330,7 @@ def _inpaint(
         prov,
         video_fps=args.video_fps,
         title=f"momu {args.direction}",
+        rigid=False,  # the kept frames stay the input's, bit for bit
     )
     log.info("momu generate %s: wrote %s", args.direction, ", ".join(map(str, written)))
     return 0

@@ -71,14 +71,21 @@ def write_dance_outputs(
     *,
     video_fps: float = 25.0,
     title: str = "momu dance",
+    rigid: bool = True,
 ) -> list[Path]:
     """Write the generated motion in each requested format; returns the files written.
 
     ``motion`` is ``(T, J, D)`` at ``fps`` on ``skeleton`` (any method's); the mp4 carries ``audio``
     as its sound, or is silent (and as long as the motion) when ``audio`` is ``None`` (text→motion).
+    With ``rigid`` (3D skeletons) every file holds :func:`momu.export.rigid_motion` of ``motion``, the
+    BVH's motion: one length per bone, so the npz and the BVH agree joint for joint. ``rigid=False``
+    writes ``motion`` as it is to the npz and the mp4 (inpainting keeps the given frames bit for bit);
+    the BVH then holds its rigid version.
     """
-    from momu.export import write_bvh, write_motion_npz
+    from momu.export import rigid_motion, write_bvh, write_motion_npz
 
+    if rigid:
+        motion = rigid_motion(motion, skeleton)
     written = []
     if "npz" in paths:
         written.append(write_motion_npz(paths["npz"], motion, fps, skeleton, provenance=provenance))

@@ -1,8 +1,10 @@
 """BVH export and import of joint positions, through ``upc-pymotion`` (``pymotion.io.bvh``).
 
 :func:`write_bvh` turns ``(T, J, 3)`` joint positions of a registered 3D skeleton into a BVH file:
-the hierarchy and rotations of :mod:`momu.export.rig` (bone-direction IK, documented twist choice),
-the root's position as translation channels, ``Frame Time = 1 / fps``. Lengths are written in metres
+the hierarchy and rotations of :mod:`momu.export.rig` (bone-direction IK, documented twist choice)
+with one length per bone for the whole motion (:mod:`momu.export.rigid`: the median), the root's
+position as translation channels, ``Frame Time = 1 / fps``. The file holds the rigid version of the
+motion (:func:`momu.export.rigid.rigid_motion`), joint for joint. Lengths are written in metres
 (``scale`` changes the unit: 100 writes centimetres), so Blender's importer shows the dancer life-size
 at its default scale 1. :func:`read_bvh` loads any BVH file with the same library and returns its
 joints' world positions by forward kinematics.
@@ -19,18 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from momu.export.rig import BvhRig, build_rig, global_rotations, local_rotations
-from momu.features.bones import mean_bone_lengths
-from momu.features.skeletons import Skeleton, get_skeleton
+from momu.export.rig import BvhRig, local_rotations
+from momu.export.rigid import as_skeleton, check_motion_3d, fit_rigid_pose
+from momu.features.skeletons import Skeleton
 from momu.io import atomic_path
 
 __all__ = ["BvhMotion", "motion_bvh_data", "write_bvh", "read_bvh", "DEFAULT_ROTATION_ORDER"]
 
 DEFAULT_ROTATION_ORDER = "zxy"
 """Euler channel order of written files (``Zrotation Xrotation Yrotation``, as in CMU/Mixamo files)."""
-
-MIN_BONE_LENGTH = 1e-4
-"""Bones whose mean length in the motion is shorter (metres) keep the skeleton's rest length."""
 
 
 @dataclass(frozen=True)
@@ -50,34 +49,14 @@ class BvhMotion:
     fps: float
 
 
-def _skeleton(skeleton: str | Skeleton) -> Skeleton:
-    return skeleton if isinstance(skeleton, Skeleton) else get_skeleton(skeleton)
-
-
 def _check_motion(motion: np.ndarray, skel: Skeleton, trajectory: np.ndarray | None) -> np.ndarray:
-    x = np.asarray(motion, dtype=np.float64)
-    if skel.dims != 3:
-        raise ValueError(
-            f"skeleton {skel.name!r} is {skel.dims}D image keypoints: BVH needs 3D joint positions "
-            "(convert with momu.features.convert, or use a 3D model)"
-        )
-    if x.ndim != 3 or x.shape[1:] != (skel.num_joints, 3) or x.shape[0] < 1:
-        want = f"(T, {skel.num_joints}, 3)"
-        raise ValueError(f"motion must be {want} for skeleton {skel.name!r}, got {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("motion contains NaN or infinite values")
+    x = check_motion_3d(motion, skel)
     if trajectory is not None:
         traj = np.asarray(trajectory, dtype=np.float64)
         if traj.shape != (x.shape[0], 3) or not np.all(np.isfinite(traj)):
             raise ValueError(f"trajectory must be finite (T, 3) = ({x.shape[0]}, 3), got {traj.shape}")
         x = x + traj[:, None, :]
     return x
-
-
-def _bone_lengths(x: np.ndarray, skel: Skeleton) -> np.ndarray:
-    lengths = np.asarray(mean_bone_lengths(x, skel.bones), dtype=np.float64)
-    rest = skel.bone_lengths
-    return np.where(lengths > MIN_BONE_LENGTH, lengths, np.maximum(rest, MIN_BONE_LENGTH))
 
 
 def motion_bvh_data(
@@ -93,7 +72,7 @@ def motion_bvh_data(
     """The rig and the ``pymotion`` BVH data dict of ``motion`` (see :func:`write_bvh`)."""
     import pymotion.rotations.quat_np as quat
 
-    skel = _skeleton(skeleton)
+    skel = as_skeleton(skeleton)
     if not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a positive frame rate, got {fps!r}")
     order = rotation_order.lower()
@@ -102,14 +81,15 @@ def motion_bvh_data(
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be > 0, got {scale!r}")
     x = _check_motion(motion, skel, trajectory)
-    rig = build_rig(skel, _bone_lengths(x, skel) if bone_lengths is None else bone_lengths)
-    local = local_rotations(rig, global_rotations(rig, x))
+    pose = fit_rigid_pose(x, skel, bone_lengths)
+    rig = pose.rig
+    local = local_rotations(rig, pose.rotations)
     t, n = local.shape[:2]
     orders = np.broadcast_to(np.array(list(order)), (t, n, 3))
     euler = np.degrees(quat.to_euler(quat.from_matrix(local), order=orders))
     euler = (euler + 180.0) % 360.0 - 180.0  # (-180, 180]: smaller numbers, same rotation
     positions = np.broadcast_to(rig.offsets * scale, (t, n, 3)).copy()
-    positions[:, 0] = x[:, skel.root] * scale
+    positions[:, 0] = pose.root * scale
     leaves = [b for b in range(n) if not any(p == b for p in rig.parents)]
     data: dict[str, object] = {
         "names": np.array(rig.names),
@@ -145,14 +125,15 @@ def write_bvh(
         fps: frame rate (the file's ``Frame Time`` is ``1 / fps``).
         skeleton: a registered 3D skeleton (name or :class:`Skeleton`).
         trajectory: optional ``(T, 3)`` root path added to every joint (root-centred clips).
-        bone_lengths: rest bone lengths in :attr:`Skeleton.bones` order (default: the motion's mean
-            bone lengths; bones of mean length under 0.1 mm keep the skeleton's rest length).
+        bone_lengths: rest bone lengths in :attr:`Skeleton.bones` order (default: the motion's median
+            bone lengths, :func:`momu.export.rigid.fit_bone_lengths`).
         rotation_order: Euler channel order (default ``zxy``).
         scale: length unit factor (1 = metres, 100 = centimetres).
 
     Returns:
-        ``Path(path)``. Forward kinematics of the file reproduces ``motion`` exactly where the motion
-        is rigid with the written bone lengths (the rest is the documented least-squares fit).
+        ``Path(path)``. Forward kinematics of the file gives :func:`momu.export.rigid.rigid_motion` of
+        ``motion`` (+ ``trajectory``) within a micrometre: ``motion`` itself where its bones keep the
+        written lengths, else every bone in its direction with the written length.
     """
     from pymotion.io.bvh import BVH
 

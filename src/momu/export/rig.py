@@ -1,28 +1,34 @@
-"""A BVH rig for a registered skeleton, and joint rotations from joint positions.
+"""A BVH rig for a registered skeleton, joint rotations from joint positions, and its forward kinematics.
 
 A BVH file stores one rotation per joint; that rotation turns the rest offsets of *all* the joint's
-children. A skeleton joint whose children move as one rigid body (SMPL's ``spine3`` with its neck and
-collars) maps to one BVH joint. A joint whose children belong to different body segments
+children. A skeleton joint whose children belong to different body segments
 (:attr:`momu.features.skeletons.Skeleton.segments`: Dance with Melody's pelvis carries the hips, which
 turn with the pelvis, and the shoulders and head, which turn with the abdomen) gets one BVH joint for
 the group of children that shares its own segment (for the root: the ``pelvis`` group, else the
-largest) and one *virtual* joint per other group, at the same place (zero offset), named
-``<joint>_<segment>``. So every group's bones are turned by their own rotation, as the skeleton's
-forward kinematics (:func:`momu.features.skeletons.forward_kinematics`) turns them.
+largest) and one *segment* helper joint per other group, at the same place (zero offset), named
+``<joint>_<segment>``, whose rotation is the group's.
 
-Rest offsets are the skeleton's rest directions scaled to the bone lengths given (the mean lengths of
-the motion, by default), so a written file keeps the motion's proportions.
+The bones of a group of two or more children (SMPL's ``spine3`` with its neck and collars) need not
+keep their angles to each other in generated motion, so one rotation cannot place them all. Each
+child of such a group hangs from its own *bone* helper joint, ``<joint>_to_<child>``, at the group
+joint's place (zero offset), whose local rotation turns that one bone from the group's rotation onto
+its own direction. So every bone of the skeleton has a BVH joint whose rotation aims it exactly, and
+forward kinematics of the rig reproduces every joint position of a motion whose bones have the rig's
+lengths (:mod:`momu.export.rigid` re-poses any motion that way).
+
+Rest offsets are the skeleton's rest directions scaled to the bone lengths given (one length per
+bone for the whole motion: :func:`momu.export.rigid.fit_bone_lengths`).
 
 Rotations from positions (inverse kinematics by aligning bone directions):
 
 * a group of two or more children: the rotation that best maps the group's rest offsets onto its
-  current bone vectors (scaled to rest length), by the Kabsch/SVD solution of Wahba's problem. It is
-  exact on rigid motion; on noisy data it is the least-squares fit.
-* a group of one child (a limb bone): its direction fixes the rotation up to a twist about the bone.
-  **Twist choice**: the joint's *local* rotation is the shortest-arc rotation taking the rest offset to
-  the current bone direction expressed in the parent's frame, i.e. no twist about the bone relative
-  to the parent. Twist cannot be seen in joint positions; this choice keeps local rotations smallest
-  and continuous.
+  current bone vectors (scaled to rest length), by the Kabsch/SVD solution of Wahba's problem (a
+  least-squares "segment orientation"; the bone helpers make every bone exact).
+* one child (a limb bone, or a bone helper's bone): its direction fixes the rotation up to a twist
+  about the bone. **Twist choice**: the joint's *local* rotation is the shortest-arc rotation taking
+  the rest offset to the current bone direction expressed in the parent's frame, i.e. no twist about
+  the bone relative to the parent. Twist cannot be seen in joint positions; this choice keeps local
+  rotations smallest and continuous.
 * a leaf (no children): local rotation identity; its End Site extends its bone by a quarter length.
 
 The root joint carries the root's position (translation channels) and its group's rotation.
@@ -36,7 +42,7 @@ import numpy as np
 
 from momu.features.skeletons import Skeleton
 
-__all__ = ["BvhRig", "build_rig", "global_rotations", "local_rotations"]
+__all__ = ["BvhRig", "build_rig", "global_rotations", "local_rotations", "world_positions"]
 
 END_SITE_FRACTION = 0.25
 """Length of a leaf's End Site as a fraction of the leaf's bone (it only gives a viewer a bone tail)."""
@@ -48,7 +54,8 @@ class BvhRig:
 
     Attributes:
         skeleton: the skeleton's name.
-        names: BVH joint names (the skeleton's joint names, plus ``<joint>_<segment>`` virtual joints).
+        names: BVH joint names (the skeleton's joint names, plus the ``<joint>_<segment>`` and
+            ``<joint>_to_<child>`` helper joints).
         parents: parent BVH joint of each joint (``-1`` for the root).
         offsets: ``(N, 3)`` rest offsets from the parent joint, in metres.
         joint_of: the skeleton joint each BVH joint sits at.
@@ -70,7 +77,7 @@ class BvhRig:
 
     @property
     def bvh_index(self) -> tuple[int, ...]:
-        """For each skeleton joint, the BVH joint that is it (not one of its virtual joints)."""
+        """For each skeleton joint, the BVH joint that is it (not one of its helper joints)."""
         out: dict[int, int] = {}
         for b, j in enumerate(self.joint_of):
             out.setdefault(j, b)
@@ -136,10 +143,17 @@ def build_rig(skeleton: Skeleton, bone_lengths: np.ndarray | None = None) -> Bvh
         for k, (segment, children) in enumerate(_child_groups(skeleton, joint)):
             holder = here if k == 0 else add(f"{name}_{segment}", here, np.zeros(3), joint)
             groups[holder] = tuple(children)
-            for c in children:
-                visit(c, holder, rest[c])
+            if len(children) == 1:
+                visit(children[0], holder, rest[children[0]])
+                continue
+            for c in children:  # one bone helper per child: each bone gets its own rotation
+                helper = add(f"{name}_to_{skeleton.joint_names[c]}", holder, np.zeros(3), joint)
+                groups[helper] = (c,)
+                visit(c, helper, rest[c])
 
     visit(skeleton.root, -1, np.zeros(3))
+    if len(set(names)) != len(names):  # pragma: no cover - registered skeletons have none
+        raise ValueError(f"skeleton {skeleton.name!r}: BVH helper joint names clash with joint names")
     off = np.stack(offsets)
     ends = np.zeros_like(off)
     for b, g in enumerate(groups):
@@ -237,3 +251,15 @@ def local_rotations(rig: BvhRig, global_rot: np.ndarray) -> np.ndarray:
         if p >= 0:
             local[:, b] = np.swapaxes(global_rot[:, p], -1, -2) @ global_rot[:, b]
     return local
+
+
+def world_positions(rig: BvhRig, global_rot: np.ndarray, root_positions: np.ndarray) -> np.ndarray:
+    """``(T, N, 3)`` world positions of every BVH joint by the BVH convention of forward kinematics:
+    ``pos[b] = pos[parent] + G[parent] · offset[b]``, the root at ``root_positions`` ``(T, 3)``."""
+    rot = np.asarray(global_rot, dtype=np.float64)
+    pos = np.empty(rot.shape[:2] + (3,))
+    pos[:, 0] = np.asarray(root_positions, dtype=np.float64)
+    for b in range(1, rig.num_joints):
+        p = rig.parents[b]
+        pos[:, b] = pos[:, p] + rot[:, p] @ rig.offsets[b]
+    return pos
