@@ -13,7 +13,10 @@ Third-party parts come through the entry-point group ``momu.<kind>`` of their ow
 distribution. Discovery is lazy: :meth:`Registry.names` and :meth:`Registry.sources` read
 package metadata only and import nothing; :meth:`Registry.get` imports only the plugin asked
 for. A plugin that fails to import raises :class:`PluginError` naming its distribution and
-entry point; it never breaks ``import momu`` or other parts.
+entry point; it never breaks ``import momu`` or other parts. A plugin's import is stopped after
+``MOMU_PLUGIN_TIMEOUT`` seconds (:mod:`momu.plugin_import`), so one that hangs cannot hang momu.
+Two plugins that declare the same name make :meth:`Registry.get` of that name raise
+:class:`RegistryError` naming both distributions and entry points (neither is picked silently).
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points, packages_distributions, version
 from typing import Any, Generic, TypeVar
+
+from momu.plugin_import import PluginImportTimeout, import_within, plugin_timeout
 
 __all__ = [
     "BUILTIN_SOURCE",
@@ -182,11 +187,28 @@ class Registry(Generic[T]):
             self._builtins_loaded = True
             importlib.import_module(self._builtin_module)
 
-    def _entry_points(self) -> dict[str, EntryPoint]:
-        found: dict[str, EntryPoint] = {}
+    def _declarations(self) -> dict[str, list[EntryPoint]]:
+        """``name -> entry points declaring it`` (by distribution): more than one when two
+        distributions claim a name."""
+        found: dict[str, list[EntryPoint]] = {}
         for ep in entry_points(group=self.group):
-            found.setdefault(ep.name, ep)
+            same = found.setdefault(ep.name, [])
+            if not any(e.value == ep.value and _dist_source(e) == _dist_source(ep) for e in same):
+                same.append(ep)
+        for eps in found.values():
+            if len(eps) > 1:  # reads the distributions' metadata only for a clash
+                eps.sort(key=lambda e: (_dist_source(e), e.value))
         return found
+
+    def _entry_points(self) -> dict[str, EntryPoint]:
+        return {name: eps[0] for name, eps in self._declarations().items()}
+
+    def _clash(self, name: str, declared: list[EntryPoint]) -> RegistryError:
+        who = " and ".join(f"{_describe(ep)} of {_dist_source(ep)}" for ep in declared)
+        return RegistryError(
+            f"{self.kind} '{name}' is declared by {len(declared)} plugins: {who}; "
+            "uninstall one or rename its part"
+        )
 
     def names(self) -> list[str]:
         """Every name of this kind, built-in and plugin, sorted. Imports no plugin."""
@@ -197,9 +219,12 @@ class Registry(Generic[T]):
         """``name -> source`` for every part, without importing any plugin."""
         self._load_builtins()
         out = {name: entry.source for name, entry in self._entries.items()}
-        for name, ep in self._entry_points().items():
+        for name, eps in self._declarations().items():
+            ep = eps[0]
             if out.get(name) == BUILTIN_SOURCE:  # get() refuses the name until one is renamed
                 out[name] = f"{BUILTIN_SOURCE} (CONFLICT: also {_dist_source(ep)})"
+            elif len(eps) > 1:  # so does it for two plugins
+                out[name] = f"CONFLICT: {', '.join(_dist_source(e) for e in eps)}"
             out.setdefault(name, _dist_source(ep))
         return dict(sorted(out.items()))
 
@@ -213,11 +238,16 @@ class Registry(Generic[T]):
         """The entry for ``name``, importing its plugin if it comes from one.
 
         Raises:
-            RegistryError: no part has that name (the message lists the valid names).
-            PluginError: the plugin declaring ``name`` failed to import or did not register it.
+            RegistryError: no part has that name (the message lists the valid names), or two
+                plugins declare it (the message names both).
+            PluginError: the plugin declaring ``name`` failed to import, did not finish importing
+                within ``MOMU_PLUGIN_TIMEOUT`` seconds, or did not register it.
         """
         self._load_builtins()
-        ep = self._entry_points().get(name)
+        declared = self._declarations().get(name, [])
+        if len(declared) > 1:
+            raise self._clash(name, declared)
+        ep = declared[0] if declared else None
         if name in self._entries:
             entry = self._entries[name]
             if ep is not None and entry.source == BUILTIN_SOURCE:
@@ -234,17 +264,22 @@ class Registry(Generic[T]):
 
     def _load_plugin(self, name: str, ep: EntryPoint) -> Entry:
         source = _dist_source(ep)
+        what = f"{self.kind} '{name}' from distribution {source} ({_describe(ep)})"
         try:
-            loaded = ep.load()
+            seconds = plugin_timeout()
+        except ValueError as exc:
+            raise PluginError(str(exc)) from None
+        try:
+            loaded = import_within(ep.load, seconds, what)
+        except PluginImportTimeout as exc:
+            raise PluginError(str(exc)) from None
         except (Exception, SystemExit) as exc:  # a broken plugin (even one calling sys.exit) is isolated
-            what = (
+            reason = (
                 f"called sys.exit({exc.code!r})"
                 if isinstance(exc, SystemExit)
                 else f"{type(exc).__name__}: {exc}"
             )
-            raise PluginError(
-                f"{self.kind} '{name}' from distribution {source} ({_describe(ep)}) failed to import: {what}"
-            ) from exc
+            raise PluginError(f"{what} failed to import: {reason}") from exc
         entry = self._entries.get(name)
         if entry is None:
             # The entry point may name the factory itself, registered under another name.

@@ -187,3 +187,76 @@ def test_entry_point_that_registers_nothing_is_reported(
     )
     with pytest.raises(PluginError, match="registered no losses part named 'empty_loss'"):
         registry_for("losses").get("empty_loss")
+
+
+def _twin(root: Path, monkeypatch: pytest.MonkeyPatch, dist: str) -> None:
+    module = dist.replace("-", "_")
+    install_fake_dist(
+        root / dist,
+        monkeypatch,
+        dist=dist,
+        version="1.0",
+        module=module,
+        source=f"from momu.registry import BACKBONES\n\n@BACKBONES.register('twin_net')\ndef build():\n"
+        f"    return {dist!r}\n",
+        entry_points={"momu.backbones": {"twin_net": f"{module}:build"}},
+    )
+
+
+def test_two_plugins_declaring_one_name_is_an_error_naming_both(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 34 item 9: the second plugin was silently ignored (the first one's part was built)."""
+    _twin(tmp_path, monkeypatch, "momu-twin-a")
+    _twin(tmp_path, monkeypatch, "momu-twin-b")
+    backbones = registry_for("backbones")
+    try:
+        assert backbones.names().count("twin_net") == 1  # listed once, without importing either
+        assert backbones.sources()["twin_net"] == "CONFLICT: momu-twin-a==1.0, momu-twin-b==1.0"
+        with pytest.raises(RegistryError) as err:
+            backbones.get("twin_net")
+        message = str(err.value)
+        for part in ("twin_net = momu_twin_a:build", "momu-twin-a==1.0", "twin_net = momu_twin_b:build"):
+            assert part in message
+        assert "momu-twin-b==1.0" in message and "\n" not in message
+        assert "momu_twin_a" not in sys.modules and "momu_twin_b" not in sys.modules
+        from momu.cli import main
+
+        assert main(["list", "backbones"]) == 0  # listing still works and shows the conflict
+        assert "CONFLICT" in capsys.readouterr().out
+    finally:
+        backbones.unregister("twin_net")
+
+
+def test_plugin_import_deadline_setting(monkeypatch: pytest.MonkeyPatch) -> None:
+    from momu.plugin_import import DEFAULT_PLUGIN_TIMEOUT_S, import_within, plugin_timeout
+
+    monkeypatch.delenv("MOMU_PLUGIN_TIMEOUT", raising=False)
+    assert plugin_timeout() == DEFAULT_PLUGIN_TIMEOUT_S
+    monkeypatch.setenv("MOMU_PLUGIN_TIMEOUT", "2.5")
+    assert plugin_timeout() == 2.5
+    monkeypatch.setenv("MOMU_PLUGIN_TIMEOUT", "0")
+    assert plugin_timeout() == 0.0
+    for bad in ("-1", "nan", "inf", "soon"):
+        monkeypatch.setenv("MOMU_PLUGIN_TIMEOUT", bad)
+        with pytest.raises(ValueError, match="MOMU_PLUGIN_TIMEOUT"):
+            plugin_timeout()
+    # a quick import returns its value and stops its watchdog
+    import threading
+
+    before = threading.active_count()
+    assert import_within(lambda: 7, 30.0, "x") == 7
+    assert import_within(lambda: 8, 0.0, "x") == 8
+    time_left = 5.0
+    while threading.active_count() > before and time_left > 0:
+        import time
+
+        time.sleep(0.05)
+        time_left -= 0.05
+    assert threading.active_count() == before
+
+
+def test_a_bad_plugin_deadline_is_a_plugin_error(fake_plugin: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MOMU_PLUGIN_TIMEOUT", "soon")
+    with pytest.raises(PluginError, match="MOMU_PLUGIN_TIMEOUT='soon'"):
+        registry_for("backbones").get("fake_wide")
