@@ -188,14 +188,34 @@ def _exclusive(lock_path: Path, target: Path) -> Iterator[None]:
         os.close(fd)
 
 
+def _finish_interrupted_swap(path: Path) -> Path | None:
+    """Clean up after a :func:`staged_dir` writer killed mid-swap (call with the lock held).
+
+    A backup ``.<name>.old-*`` beside a ``path`` that exists is a finished swap's: removed. A backup
+    with no ``path`` is the previous copy of a writer killed between its two renames: renamed back to
+    ``path`` (the newest, if several) and returned.
+    """
+    backups = sorted(path.parent.glob(f".{path.name}.old-*"), key=lambda p: p.stat().st_mtime)
+    restored = None
+    if backups and not path.exists():
+        restored = backups.pop()
+        os.rename(restored, path)
+    for leftover in backups:
+        shutil.rmtree(leftover, ignore_errors=True)
+    return restored
+
+
 @contextlib.contextmanager
 def staged_dir(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
     """Build a folder under a staging name and swap it into ``path`` when the block succeeds.
 
     The staging folder and a lock file live beside ``path`` (``.<name>.staging-<pid>``,
     ``.<name>.lock``), so readers of ``path`` see the old folder or the new one, never a mix, and a
-    second writer fails at once with :class:`FolderBusyError`. Leftover staging folders of killed
-    writers are removed by the next writer. A non-empty ``path`` is replaced only with ``overwrite``.
+    second writer fails at once with :class:`FolderBusyError`. The swap is two renames: the old folder
+    to a backup ``.<name>.old-<pid>``, the new one to ``path``; then the backup is removed. Leftover
+    staging folders of killed writers are removed by the next writer; a backup left with no ``path``
+    (a writer killed between its two renames) is renamed back to ``path``, never deleted. A non-empty
+    ``path`` is replaced only with ``overwrite``.
 
     Raises:
         NotADirectoryError: ``path`` is a file.
@@ -211,8 +231,12 @@ def staged_dir(path: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
     with _exclusive(path.parent / f".{path.name}.lock", path):
         for leftover in path.parent.glob(f".{path.name}.staging-*"):  # writers that were killed
             shutil.rmtree(leftover, ignore_errors=True)
-        for leftover in path.parent.glob(f".{path.name}.old-*"):
-            shutil.rmtree(leftover, ignore_errors=True)
+        restored = _finish_interrupted_swap(path)
+        if restored is not None and any(path.iterdir()) and not overwrite:
+            raise FileExistsError(
+                f"{path}: restored the previous copy from {restored.name} (a writer was stopped between "
+                "its two renames); folder is not empty (pass --overwrite to replace it)"
+            )
         staging = path.parent / f".{path.name}.staging-{os.getpid()}"
         staging.mkdir()
         try:

@@ -202,6 +202,66 @@ def test_an_interrupted_overwrite_leaves_the_old_dataset_whole(tmp_path: Path) -
     assert main(["data", "check", "synth_dance", "--root", str(out), "--no-progress"]) == 0
 
 
+def test_a_writer_killed_between_its_two_renames_loses_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The swap renames the old copy to a backup, then the new one into place: a kill in between left
+    only the backup, which the next writer deleted (issue 34). Now it is restored."""
+    out = tmp_path / "d"
+    write_dataset(out, SMALL)
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    real_rename = os.rename
+
+    def killed_before_the_second(src: object, dst: object) -> None:
+        if Path(str(src)).name.startswith(".d.staging-"):
+            raise KeyboardInterrupt  # the backup is made, the new copy not yet in place
+        real_rename(src, dst)  # type: ignore[arg-type]
+
+    monkeypatch.setattr("momu.io.os.rename", killed_before_the_second)
+    bigger = SynthConfig(num_clips=3, min_seconds=1.0, max_seconds=1.0, styles=["hiphop"])
+    with pytest.raises(KeyboardInterrupt):
+        write_dataset(out, bigger, overwrite=True)
+    monkeypatch.undo()
+    assert not out.exists() and len(list(tmp_path.glob(".d.old-*"))) == 1
+    # the next writer restores the previous copy instead of deleting it, and does not overwrite it
+    with pytest.raises(FileExistsError, match="restored the previous copy"):
+        write_dataset(out, bigger)
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not list(tmp_path.glob(".d.*"))
+    write_dataset(out, bigger, overwrite=True)
+    assert len(load_written(out)) == 3 and not list(tmp_path.glob(".d.*"))
+
+
+def test_data_synth_refuses_a_dataset_larger_than_the_free_space(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from momu.data.synth.store import check_room, estimated_bytes
+
+    usage = shutil.disk_usage(tmp_path)
+    monkeypatch.setattr("momu.data.synth.store.shutil.disk_usage", lambda _: usage._replace(free=5_000_000))
+    argv = ["data", "synth", "--out", str(tmp_path / "d"), *"--clips 40 --seconds 10 --no-progress".split()]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--clips 40: the dataset needs up to" in err and "0.01 GB free" in err
+    assert list(tmp_path.iterdir()) == []
+    # the estimate is an upper bound of what is written, and not a loose one
+    cfg = SynthConfig(num_clips=3, min_seconds=2.0, max_seconds=2.0, root_centred=True)
+    monkeypatch.undo()
+    write_dataset(tmp_path / "small", cfg)
+    written = sum(p.stat().st_size for p in (tmp_path / "small").rglob("*") if p.is_file())
+    assert written <= estimated_bytes(cfg) <= 2 * written + 20_000
+    check_room(tmp_path / "new", cfg)  # fits
+
+
+def test_float_wavs_carry_no_time_stamp(tmp_path: Path) -> None:
+    """libsndfile stamps a float wav's PEAK chunk with the time of writing: the same clip written a
+    second later gave different bytes."""
+    write_dataset(tmp_path / "d", SMALL, subtype="FLOAT")
+    wav = (tmp_path / "d" / "audio").glob("*.wav").__next__().read_bytes()
+    at = wav.find(b"PEAK")
+    assert at > 0 and wav[at + 12 : at + 16] == bytes(4)
+
+
 def _hold(path: str, ready: object, release: object) -> None:
     with staged_dir(Path(path)):
         ready.set()  # type: ignore[attr-defined]

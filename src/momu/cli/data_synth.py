@@ -1,7 +1,8 @@
 """``momu data synth --out DIR [...]``: write the built-in ``synth_dance`` dataset to disk.
 
 Writes ``DIR/manifest.json``, ``DIR/audio/<id>.wav`` and ``DIR/motion/<id>.npy`` (see
-:mod:`momu.data.synth.store`); the same options and seed always give byte-identical files. Read
+:mod:`momu.data.synth.store`); the same options and seed always give byte-identical files. At most
+``MAX_CLIPS`` clips, and only when the disk has room for the dataset's estimated size. Read
 the copy back with the ``synth_dance`` dataset's ``root=DIR`` option or
 :func:`momu.data.synth.load_written`.
 """
@@ -14,7 +15,9 @@ from typing import Any
 
 from tqdm import tqdm
 
-from momu.data.synth import STYLE_NAMES, SynthConfig, SynthDance, write_dataset
+from momu.data.synth import STYLE_NAMES, SynthConfig, write_dataset
+from momu.data.synth.dataset import validate_config
+from momu.data.synth.store import MAX_CLIPS, check_room
 from momu.errors import EXIT_PROBLEMS, UsageError, fail
 from momu.features.skeletons import SKELETON_NAMES
 from momu.io import FolderBusyError, check_output_dir
@@ -35,7 +38,11 @@ def add_action(actions: Any) -> None:
         "--overwrite", action="store_true", help="replace a non-empty --out folder once the new copy is done"
     )
     p.add_argument(
-        "--clips", type=int, default=d.num_clips, metavar="N", help="number of clips (%(default)s)"
+        "--clips",
+        type=int,
+        default=d.num_clips,
+        metavar="N",
+        help=f"number of clips (%(default)s; at most {MAX_CLIPS:,}, and as many as the free space holds)",
     )
     p.add_argument(
         "--seconds",
@@ -108,19 +115,24 @@ def config_from_args(args: argparse.Namespace) -> SynthConfig:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the dataset; exit status 0, or 2 with a one-line error for invalid options or ``--out``."""
+    """Write the dataset; exit status 0, 2 with a one-line error for invalid options, ``--out``, more
+    than ``MAX_CLIPS`` clips or not enough free space (nothing written), 1 when the disk fails or fills
+    up while writing (the old folder, or none, is left)."""
     cfg = config_from_args(args)
+    subtype = "FLOAT" if args.float_wav else "PCM_16"
     try:
-        total = len(SynthDance(cfg))  # validates every option
+        validate_config(cfg)
         check_output_dir(args.out, "--out")
+        check_room(args.out, cfg, subtype, what="--clips")
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    total = cfg.num_clips
     try:
         with tqdm(total=total, desc="synth_dance", unit="clip", disable=args.no_progress) as bar:
             out = write_dataset(
                 args.out,
                 cfg,
-                subtype="FLOAT" if args.float_wav else "PCM_16",
+                subtype=subtype,
                 progress=bar.update,
                 overwrite=args.overwrite,
             )

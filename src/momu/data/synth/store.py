@@ -15,6 +15,12 @@ renamed into place when complete (:func:`momu.io.staged_dir`), so an interrupted
 old folder (or none), never a mix; a concurrent writer of the same folder fails at once, and a
 non-empty folder is replaced only with ``overwrite``. The same configuration always gives
 byte-identical files.
+
+Before anything is written, :func:`check_room` refuses more than :data:`MAX_CLIPS` clips (the manifest
+is built in memory and written as one JSON file) and a dataset whose estimated size
+(:func:`estimated_bytes`, an upper bound) exceeds the free space where it goes. Every file is encoded
+in memory and written by one call (the wavs too), so a disk that fills up while writing raises
+``OSError`` (``ENOSPC``) and leaves the old folder, or none.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import logging
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -30,18 +37,42 @@ import numpy as np
 import soundfile as sf
 
 from momu.data.common import load_npy
-from momu.data.synth.dataset import SPLITS, SynthConfig, SynthDance, generate_clip, resolved_fps
+from momu.data.synth.dataset import (
+    SPLITS,
+    SynthConfig,
+    SynthDance,
+    generate_clip,
+    resolved_fps,
+    validate_config,
+)
 from momu.data.types import Clip
 from momu.features.skeletons import get_skeleton
-from momu.io import atomic_path, atomic_write_bytes, read_json, staged_dir, write_json
+from momu.io import atomic_write_bytes, read_json, staged_dir, write_json
 
-__all__ = ["write_dataset", "load_written", "WrittenSynthDance", "MANIFEST", "FORMAT"]
+__all__ = [
+    "write_dataset",
+    "load_written",
+    "check_room",
+    "estimated_bytes",
+    "WrittenSynthDance",
+    "MANIFEST",
+    "FORMAT",
+    "MAX_CLIPS",
+    "SUBTYPES",
+]
 
 log = logging.getLogger(__name__)
 
 MANIFEST = "manifest.json"
 FORMAT = "momu.synth_dance"
 VERSION = 1
+MAX_CLIPS = 100_000
+"""Most clips one written dataset may hold (its manifest, about 2 KB per 10 s clip, is built in memory)."""
+SUBTYPES = {"PCM_16": 2, "PCM_24": 3, "FLOAT": 4}
+"""Wav subtypes :func:`write_dataset` writes, with their bytes per sample."""
+_FILE_OVERHEAD = 4096 + 256  # a file's headers and its last, partly filled, disk block
+_MANIFEST_BYTES_PER_SECOND = 400  # beat, onset and motion-beat times: measured ~180 B/s of clip
+_MANIFEST_BYTES_PER_CLIP = 1024
 _META_KEYS = (
     "bpm",
     "beats_per_bar",
@@ -57,6 +88,63 @@ def _npy_bytes(array: np.ndarray) -> bytes:
     buf = io.BytesIO()
     np.save(buf, np.ascontiguousarray(array), allow_pickle=False)
     return buf.getvalue()
+
+
+def _wav_bytes(audio: np.ndarray, sample_rate: int, subtype: str) -> bytes:
+    """The wav file's bytes. libsndfile stamps a float wav's ``PEAK`` chunk with the time of writing;
+    that stamp is zeroed so the same clip always gives the same bytes."""
+    buf = io.BytesIO()
+    sf.write(buf, audio, sample_rate, subtype=subtype, format="WAV")
+    data = bytearray(buf.getvalue())
+    at = data.find(b"PEAK", 12, max(data.find(b"data", 12), 12))  # a header chunk, before the samples
+    if at >= 0 and len(data) >= at + 16:  # "PEAK", chunk size, version, timestamp (uint32s)
+        data[at + 12 : at + 16] = bytes(4)
+    return bytes(data)
+
+
+def estimated_bytes(cfg: SynthConfig, subtype: str = "PCM_16") -> int:
+    """An upper bound of the bytes :func:`write_dataset` writes for ``cfg`` (every clip at
+    ``max_seconds``, every file rounded up to a disk block, the manifest)."""
+    skeleton = get_skeleton(cfg.skeleton)
+    seconds = float(cfg.max_seconds)
+    frames = int(np.ceil(seconds * resolved_fps(cfg))) + 1
+    samples = int(np.ceil(seconds * cfg.sample_rate)) + 1
+    per_clip = samples * SUBTYPES.get(subtype, 4) + frames * skeleton.num_joints * skeleton.dims * 4
+    files = 2
+    if cfg.root_centred:
+        per_clip += frames * 3 * 4
+        files += 1
+    per_clip += files * _FILE_OVERHEAD + _MANIFEST_BYTES_PER_CLIP + int(_MANIFEST_BYTES_PER_SECOND * seconds)
+    return int(cfg.num_clips) * per_clip + _FILE_OVERHEAD
+
+
+def _free_bytes(path: Path) -> int:
+    probe = path
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    return int(shutil.disk_usage(probe).free)
+
+
+def check_room(
+    out_dir: str | Path, cfg: SynthConfig, subtype: str = "PCM_16", what: str = "num_clips"
+) -> None:
+    """Refuse (``ValueError`` naming ``what``) more than :data:`MAX_CLIPS` clips, or a dataset larger
+    (:func:`estimated_bytes`) than the free space of the disk ``out_dir`` goes to. Writes nothing.
+
+    With ``overwrite`` the old copy stays until the new one is complete, so the new one needs all
+    of its room."""
+    if cfg.num_clips > MAX_CLIPS:
+        raise ValueError(
+            f"{what} {cfg.num_clips}: at most {MAX_CLIPS:,} clips in one dataset (write several "
+            "folders, each with its own --seed, for more)"
+        )
+    need = estimated_bytes(cfg, subtype)
+    free = _free_bytes(Path(out_dir).absolute())
+    if need > free:
+        raise ValueError(
+            f"{what} {cfg.num_clips}: the dataset needs up to {need / 1e9:.2f} GB and {out_dir} has "
+            f"{free / 1e9:.2f} GB free; write fewer or shorter clips, or free some space"
+        )
 
 
 def write_dataset(
@@ -77,13 +165,18 @@ def write_dataset(
         overwrite: replace a non-empty ``out_dir`` (as one rename, once the new copy is complete).
 
     Raises:
-        NotADirectoryError: ``out_dir`` is a file. FileExistsError: it is a non-empty folder and
-            ``overwrite`` is false. momu.io.FolderBusyError: another process is writing it.
+        ValueError: an invalid ``cfg`` or ``subtype``, more than :data:`MAX_CLIPS` clips, or not
+            enough free space (:func:`check_room`). NotADirectoryError: ``out_dir`` is a file.
+        FileExistsError: it is a non-empty folder and ``overwrite`` is false.
+        momu.io.FolderBusyError: another process is writing it. OSError: the disk filled up (or
+            failed) while writing; the old folder (or none) is left.
     """
     cfg = cfg if cfg is not None else SynthConfig()
-    dataset = SynthDance(cfg)  # validates cfg
-    if subtype not in ("PCM_16", "PCM_24", "FLOAT"):
+    if subtype not in SUBTYPES:
         raise ValueError(f"subtype must be PCM_16, PCM_24 or FLOAT, got {subtype!r}")
+    validate_config(cfg)
+    check_room(out_dir, cfg, subtype)
+    dataset = SynthDance(cfg)
     final = Path(out_dir)
     with staged_dir(final, overwrite=overwrite) as out:
         _write_clips(out, cfg, dataset, subtype, progress)
@@ -109,8 +202,7 @@ def _write_clips(
             "num_samples": int(clip.audio.shape[0]),
             "duration": clip.duration,
         }
-        with atomic_path(out / entry["audio"]) as tmp:
-            sf.write(tmp, clip.audio, cfg.sample_rate, subtype=subtype, format="WAV")
+        atomic_write_bytes(out / entry["audio"], _wav_bytes(clip.audio, cfg.sample_rate, subtype))
         atomic_write_bytes(out / entry["motion"], _npy_bytes(clip.motion))
         if clip.trajectory is not None:
             entry["trajectory"] = f"trajectory/{clip.id}.npy"
