@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -39,6 +40,7 @@ from momu.engine.context import RunContext
 from momu.engine.preflight import check_datasets, check_outputs, row_config
 from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
+from momu.engine.signals import Interrupted, exit_status, stop_on_signals
 from momu.engine.table_report import render_markdown
 from momu.engine.table_results import compare_row, orderings, summarise_seeds
 from momu.engine.table_units import (
@@ -49,8 +51,7 @@ from momu.engine.table_units import (
     merge_timings,
 )
 from momu.engine.table_workers import run_units_in_workers, serve_units
-from momu.engine.trainer import Preempted
-from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, UsageParser, fail
+from momu.errors import EXIT_PROBLEMS, UsageParser, fail, one_line
 from momu.io import atomic_write_text, write_json
 
 __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "parse_table_args"]
@@ -383,8 +384,22 @@ def _units(spec: TableSpec, configs: Mapping[str, DictConfig], seeds: Sequence[i
 
 
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
-    """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
+    """Run a table recipe; returns the process exit status (docs/errors.md: 2 bad arguments, 143
+    stopped by SIGTERM, 130 by Ctrl-C — one line each; a stage or extractor in training writes a
+    checkpoint first, and ``--resume`` continues from it)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        with stop_on_signals():
+            return _run_table(spec, argv)
+    except Interrupted as exc:
+        sys.stderr.write(f"{spec.name}: {one_line(exc)}\n")
+        return exc.status
+    except KeyboardInterrupt:  # before the handlers were installed
+        sys.stderr.write(f"{spec.name}: interrupted (Ctrl-C)\n")
+        return exit_status(signal.SIGINT)
+
+
+def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
     args = parse_table_args(spec, argv)
     try:  # everything is checked before any folder, tracker or model is made
         _check_parallel(args, argv)
@@ -465,10 +480,9 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             for seed in seeds:
                 for name, cal in spec.calibrate(ctx, first, seed).items():
                     calibration.setdefault(name, []).append(as_scores(cal))
-    except Preempted as exc:
-        sys.stderr.write(f"{spec.name}: {exc}\n")
+    except Interrupted:
         finish_accelerator(accelerator)
-        return EXIT_PREEMPTED
+        raise
     for folder, how in ctx.trained.items():  # stages the calibration trained or reused
         stages.setdefault(folder, how)
     merge_timings(timings, ctx.timings)

@@ -28,12 +28,9 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import os
 import shutil
-import signal
 import time
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,16 +51,17 @@ from momu.engine.fast_paths import (
     make_adamw,
     validate_fast_paths,
 )
+from momu.engine.signals import Interrupted, stop_flag
 from momu.engine.state import (
+    ResumeError,
     capture_rng,
-    incomplete_checkpoints,
-    latest_checkpoint,
     load_tensors_and_json,
     mark_complete,
     prune_checkpoints,
     recover_checkpoints,
     replace_checkpoint,
     restore_rng,
+    resume_point,
     save_tensors_and_json,
 )
 from momu.io import read_json, write_json
@@ -169,58 +167,16 @@ _DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig)}
 _TRAIN_FIELDS = set(_DEFAULTS)
 
 
-class ResumeError(RuntimeError):
-    """``--resume`` found a checkpoint folder without a complete checkpoint (nothing to resume from)."""
+class Preempted(Interrupted):
+    """Raised after SIGTERM or SIGINT (or the launcher's exit) once the checkpoint is written."""
 
-
-class Preempted(RuntimeError):
-    """Raised after a SIGTERM once the checkpoint is written; resume with ``--resume``."""
-
-    def __init__(self, checkpoint: Path, reason: str = "SIGTERM") -> None:
-        super().__init__(f"stopped by {reason}; checkpoint written to {checkpoint}; rerun with --resume")
+    def __init__(self, checkpoint: Path, reason: str = "SIGTERM", status: int = 143) -> None:
+        super().__init__(
+            f"stopped by {reason}; checkpoint written to {checkpoint}; rerun the same command with "
+            "--resume to continue from it",
+            status,
+        )
         self.checkpoint = checkpoint
-
-
-class _StopFlag:
-    """SIGTERM arrived, or the launcher that started this process is gone (an orphaned trainer)."""
-
-    def __init__(self) -> None:
-        from momu.errors import launcher_pid
-
-        self.signalled = False
-        self._launcher = launcher_pid()
-        self._parent = os.getppid()
-
-    @property
-    def orphaned(self) -> bool:
-        return self._launcher is not None and os.getppid() != self._parent
-
-    @property
-    def stop(self) -> bool:
-        return self.signalled or self.orphaned
-
-    @property
-    def reason(self) -> str:
-        return "SIGTERM" if self.signalled else "the exit of its accelerate launcher"
-
-
-@contextmanager
-def _sigterm_flag() -> Iterator[_StopFlag]:
-    """Catch SIGTERM while training; the loop checks the flag after each optimizer step."""
-    flag = _StopFlag()
-
-    def handler(signum: int, frame: Any) -> None:
-        flag.signalled = True
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave signals alone
-        yield flag
-        return
-    try:
-        yield flag
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _any_process(accelerator: Accelerator, *values: bool) -> tuple[bool, ...]:
@@ -262,25 +218,17 @@ def _save(
 def _resume_point(accelerator: Accelerator, root: Path, name: str) -> Path | None:
     """The checkpoint to resume from after recovering interrupted saves; ``None``: nothing under ``root``.
 
+    The newest complete checkpoint whose files match their recorded SHA-256; corrupt or incomplete
+    ones are reported and skipped (:func:`~momu.engine.state.resume_point`).
+
     Raises:
-        ResumeError: ``root`` holds checkpoint folders but none of them is complete.
+        ResumeError: ``root`` holds checkpoint folders but none of them is complete and intact.
     """
     if accelerator.is_main_process:
         for note in recover_checkpoints(root):
             log.warning("stage %s: %s", name, note)
     accelerator.wait_for_everyone()
-    skipped = incomplete_checkpoints(root)
-    for folder in skipped:
-        log.warning(
-            "stage %s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder
-        )
-    checkpoint = latest_checkpoint(root)
-    if checkpoint is None and skipped:
-        raise ResumeError(
-            f"stage {name!r}: --resume found no complete checkpoint under {root} (incomplete: "
-            f"{', '.join(p.name for p in skipped)}); delete {root} to train the stage from scratch"
-        )
-    return checkpoint
+    return resume_point(root, f"stage {name!r}")
 
 
 def _load(accelerator: Accelerator, checkpoint: Path, model: nn.Module, optimizer: Any) -> int:
@@ -388,7 +336,7 @@ def train_stage(
     model.train()
     meter = StepMeter()
     last_save = time.monotonic()
-    with _sigterm_flag() as flag, attention_kernels(cfg.attention):
+    with stop_flag() as flag, attention_kernels(cfg.attention):
         while step < cfg.steps:
             sampler = getattr(loader, "set_epoch", None)
             if sampler is not None:
@@ -428,7 +376,9 @@ def train_stage(
                 if stop:
                     meter.check(name)
                     raise Preempted(
-                        _save(accelerator, checkpoint_root, step, model, optimizer, cfg), flag.reason
+                        _save(accelerator, checkpoint_root, step, model, optimizer, cfg),
+                        flag.reason,
+                        flag.status,
                     )
                 every = cfg.checkpoint_every and step % cfg.checkpoint_every == 0
                 if (every or due) and step < cfg.steps:
