@@ -310,7 +310,7 @@ def resume_point(root: Path, name: str) -> Path | None:
         log.warning(
             "%s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder
         )
-    bad = []
+    bad: list[Path] = []
     for checkpoint in reversed(checkpoint_dirs(root)):
         problem = checksum_problem(checkpoint)
         if problem is None:
