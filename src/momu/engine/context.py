@@ -45,6 +45,7 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
+from momu.engine.progress import JobProgress
 from momu.engine.provenance import git_commit
 from momu.engine.trainer import (
     WEIGHT_NEUTRAL_FIELDS,
@@ -140,6 +141,7 @@ class RunContext:
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
     parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
     derived: OrderedDict[str, Any] = field(default_factory=OrderedDict, repr=False)  # see remember()
+    progress: JobProgress | None = None  # the table run's progress line: told every stage's steps
 
     @contextmanager
     def timed(self, category: str) -> Iterator[None]:
@@ -277,6 +279,8 @@ class RunContext:
             model.to(self.accelerator.device).eval()
             self.mark_reused(folder.name, folder / "stage.json")
             log.info("stage %s: reusing %s", name, folder)
+            if self.progress is not None:
+                self.progress.stage_done(name, cfg.steps, "reused")
             return model
         data = dataset() if callable(dataset) else dataset
         with self.timed(f"train {name}"):
@@ -290,7 +294,10 @@ class RunContext:
                 checkpoint_root=folder / "checkpoints",
                 collate_fn=collate_fn,
                 resume=self.resume,
+                on_step=None if self.progress is None else functools.partial(self.progress.stage_step, name),
             )
+        if self.progress is not None:
+            self.progress.stage_done(name, cfg.steps, "trained")
         if self.accelerator.is_main_process:
             write_safetensors(weights, trained.state_dict())
             write_json(

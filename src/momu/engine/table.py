@@ -33,11 +33,13 @@ from typing import Any
 
 import torch
 from omegaconf import DictConfig
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from momu.config import ConfigError, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
 from momu.engine.preflight import check_datasets, check_outputs, row_config
+from momu.engine.progress import JobProgress, planned_steps
 from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
 from momu.engine.signals import Interrupted, exit_status, stop_on_signals
@@ -388,8 +390,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     stopped by SIGTERM, 130 by Ctrl-C — one line each; a stage or extractor in training writes a
     checkpoint first, and ``--resume`` continues from it)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    try:
-        with stop_on_signals():
+    try:  # log lines go above the progress bars instead of through them
+        with stop_on_signals(), logging_redirect_tqdm():
             return _run_table(spec, argv)
     except Interrupted as exc:
         sys.stderr.write(f"{spec.name}: {one_line(exc)}\n")
@@ -452,6 +454,8 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
     calibration: dict[str, list[Scores]] = {}
     stages: dict[str, str] = {}
     timings: dict[str, dict[str, float]] = {}
+    progress = JobProgress(spec.name, len(units), enabled=accelerator.is_main_process)
+    ctx.progress = progress
     try:
         done = 0
         for row in spec.rows:
@@ -462,7 +466,9 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
             for seed in seeds:
                 unit = Unit(row.id, seed)
                 log.info("%s: row %s (%s), seed %d", spec.name, row.id, row.name, seed)
+                progress.start_unit(f"row {row.id} seed {seed}", planned_steps(to_container(cfg)))
                 scores, trained, unit_timings = evaluate_unit(spec.evaluate, ctx, cfg, unit, reuse=reuse)
+                progress.finish_unit()
                 per_seed.append(scores)
                 for folder, how in trained.items():
                     if stages.get(folder) != "trained":
@@ -483,6 +489,9 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
     except Interrupted:
         finish_accelerator(accelerator)
         raise
+    finally:
+        progress.close()
+        ctx.progress = None
     for folder, how in ctx.trained.items():  # stages the calibration trained or reused
         stages.setdefault(folder, how)
     merge_timings(timings, ctx.timings)

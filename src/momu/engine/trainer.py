@@ -274,6 +274,7 @@ def train_stage(
     checkpoint_root: Path,
     collate_fn: Callable[[list[Any]], Any] | None = None,
     resume: bool = False,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> nn.Module:
     """Train ``model`` on ``dataset`` for ``cfg.steps`` optimizer steps and return it unwrapped.
 
@@ -284,6 +285,8 @@ def train_stage(
         loss_fn: ``loss_fn(model, batch)`` returning the loss, or ``(loss, logs)``.
         checkpoint_root: folder of this stage's checkpoints (``step_<n>/``).
         resume: continue from the newest checkpoint under ``checkpoint_root`` if there is one.
+        on_step: called as ``on_step(step, cfg.steps)`` after each optimizer step (and once at the
+            start), on the main process (a job's progress line, :mod:`momu.engine.progress`).
 
     Raises:
         Preempted: SIGTERM arrived; a checkpoint was written first.
@@ -333,6 +336,10 @@ def train_stage(
     bar = tqdm(
         total=cfg.steps, initial=step, desc=name, disable=not accelerator.is_local_main_process, leave=False
     )
+    if not accelerator.is_main_process:
+        on_step = None
+    if on_step is not None:
+        on_step(step, cfg.steps)
     model.train()
     meter = StepMeter()
     last_save = time.monotonic()
@@ -358,6 +365,8 @@ def train_stage(
                     continue
                 step += 1
                 bar.update(1)
+                if on_step is not None:
+                    on_step(step, cfg.steps)
                 meter.add({"loss": loss, **logs})
                 if step % cfg.log_every == 0 or step == cfg.steps:
                     count = cfg.log_every if step % cfg.log_every == 0 else step % cfg.log_every
