@@ -31,6 +31,7 @@ import math
 import shutil
 import time
 from collections.abc import Callable, Mapping
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -343,7 +344,7 @@ def train_stage(
     model.train()
     meter = StepMeter()
     last_save = time.monotonic()
-    with stop_flag() as flag, attention_kernels(cfg.attention):
+    with stop_flag() as flag, attention_kernels(cfg.attention), closing(bar):  # closed also when stopped
         while step < cfg.steps:
             sampler = getattr(loader, "set_epoch", None)
             if sampler is not None:
@@ -397,7 +398,6 @@ def train_stage(
                 if step >= cfg.steps:
                     break
             epoch, skip = epoch + 1, 0
-    bar.close()
     meter.check(name)
     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
     model.eval()

@@ -10,6 +10,7 @@ import logging
 import shutil
 import time
 from collections.abc import Mapping, Sequence
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -201,7 +202,7 @@ def _fit_loop(
     steps = train.epochs * len(slices)
     bar = tqdm(total=steps, initial=epoch * len(slices) + batch, desc=desc, unit="step", leave=False)
     last_save = time.monotonic()
-    with stop_flag() as flag:
+    with stop_flag() as flag, closing(bar):  # the bar's line is cleared also when stopped
         while epoch < train.epochs:  # one optimizer step per pass
             if batch == 0:
                 order = rng.permutation(num_samples)
@@ -227,7 +228,6 @@ def _fit_loop(
             if checkpointing.minutes > 0 and time.monotonic() - last_save >= 60.0 * checkpointing.minutes:
                 save(epoch * len(slices) + batch)
                 last_save = time.monotonic()
-    bar.close()
     model.eval()
     return history
 
