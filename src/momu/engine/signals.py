@@ -75,8 +75,8 @@ class StopFlag:
 
 def _raise_interrupted(signum: int, frame: Any) -> None:
     raise Interrupted(
-        f"stopped by {signal_name(signum)} between training steps; the stages trained so far are kept "
-        "(rerun the same command with --resume to reuse them)",
+        f"stopped by {signal_name(signum)} outside a training step; the stages trained so far are kept "
+        "(rerun the same command to reuse them)",
         exit_status(signum),
     )
 

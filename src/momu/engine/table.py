@@ -43,6 +43,7 @@ from momu.engine.progress import JobProgress, planned_steps
 from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
 from momu.engine.signals import Interrupted, exit_status, stop_on_signals
+from momu.engine.state import ResumeError
 from momu.engine.table_report import render_markdown
 from momu.engine.table_results import compare_row, orderings, summarise_seeds
 from momu.engine.table_units import (
@@ -396,6 +397,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     except Interrupted as exc:
         sys.stderr.write(f"{spec.name}: {one_line(exc)}\n")
         return exc.status
+    except ResumeError as exc:  # --resume found checkpoints, none intact
+        return fail(spec.name, exc)
     except KeyboardInterrupt:  # before the handlers were installed
         sys.stderr.write(f"{spec.name}: interrupted (Ctrl-C)\n")
         return exit_status(signal.SIGINT)

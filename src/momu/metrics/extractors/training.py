@@ -10,7 +10,7 @@ import logging
 import shutil
 import time
 from collections.abc import Mapping, Sequence
-from contextlib import closing
+from contextlib import closing, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -202,7 +202,8 @@ def _fit_loop(
     steps = train.epochs * len(slices)
     bar = tqdm(total=steps, initial=epoch * len(slices) + batch, desc=desc, unit="step", leave=False)
     last_save = time.monotonic()
-    with stop_flag() as flag, closing(bar):  # the bar's line is cleared also when stopped
+    signals = stop_flag() if checkpointing is not None else nullcontext(None)  # else: signals as they are
+    with signals as flag, closing(bar):  # the bar's line is cleared also when stopped
         while epoch < train.epochs:  # one optimizer step per pass
             if batch == 0:
                 order = rng.permutation(num_samples)
@@ -221,7 +222,7 @@ def _fit_loop(
                 history.append(total / seen)
                 bar.set_postfix(epoch=len(history), loss=f"{history[-1]:.4f}")
                 epoch, batch = epoch + 1, 0
-            if checkpointing is None or epoch >= train.epochs:
+            if checkpointing is None or flag is None or epoch >= train.epochs:
                 continue
             if flag.stop:
                 raise Preempted(save(epoch * len(slices) + batch), flag.reason, flag.status)
