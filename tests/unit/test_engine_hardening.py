@@ -13,8 +13,8 @@ import torch
 from tests.unit.test_engine import CFG, _accelerator, _train
 
 from momu.engine import TrainConfig
-from momu.engine import state as state_mod
 from momu.engine import signals as signals_mod
+from momu.engine import state as state_mod
 from momu.engine import trainer as trainer_mod
 from momu.engine.context import stage_identity, stage_key_hash
 from momu.engine.state import (

@@ -105,7 +105,7 @@ class MoMu:
         self, latent_channels: int, conditions: Conditions | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """θ_a's and θ_m's nodes, their condition widths from ``conditions`` (default: the latent width)."""
-        widths = (None, None)
+        widths: tuple[int | None, int | None] = (None, None)
         if conditions is not None:
             widths = (
                 conditions.cond_width("music", latent_channels),
@@ -284,7 +284,7 @@ class MoMu:
             data = windows()
             z_music, z_motion = encode_windows(vae, data)
             built["diffusion"].set_statistics(z_music, z_motion)
-            features = {
+            features: dict[str, torch.Tensor] = {
                 key: torch.stack([item[key] for item in data.items])
                 for key in ("f_music", "f_motion")
                 if key in data.items[0]
