@@ -8,7 +8,8 @@ Exit statuses (``docs/errors.md``):
           ``momu eval`` failed); also what ``accelerate launch`` reports for *any* failing child.
 ``2``     usage error: a bad argument, config key, input file or output path. The one-line
           reason is ``<prog>: error: <what>: <why>`` and nothing was written.
-``143``   stopped by SIGTERM after writing a checkpoint; rerun with ``--resume``.
+``143``   stopped by SIGTERM (after a checkpoint of the stage in training); rerun with ``--resume``.
+``130``   stopped by Ctrl-C (SIGINT), the same way.
 ========  =========================================================================================
 
 Under a launcher the child's status and stderr are not the user's last word: ``accelerate launch``

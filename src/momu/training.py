@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from momu.config import ConfigError, build_component, load_config, save_config, to_container
+from momu.config.schema import RecipeConfig
 from momu.io import write_json
 
 __all__ = ["RECIPES", "TrainResult", "train_config", "train_method", "detect_dataset", "find_model"]
@@ -92,32 +93,56 @@ def train_config(
     elif dataset is not None:
         raise ConfigError("--dataset names a loader for --data DIR; with --data synth it is synth_dance")
     base = getattr(recipe, "PRESET_CONFIGS", {}).get(preset, recipe.BASE_CONFIG)
-    return load_config(base, [*recipe.PRESETS[preset], *data_overrides, *overrides])
+    # every top-level key is checked against the recipe schema (a typo such as ``sed=3`` names the
+    # valid keys), as for the tables and ``momu config show``
+    return load_config(
+        base, [*recipe.PRESETS[preset], *data_overrides, *overrides], schema=RecipeConfig, fill_defaults=False
+    )
 
 
-def _motion_shape(ds: Any) -> tuple[int, int]:
-    from momu.methods.momu.data import select_split
+def _clip(ds: Any, index: int) -> Any:
+    """Clip ``index`` of ``ds``; a file that cannot be read is a ``ConfigError`` naming it."""
+    from momu.data.files import DataFileError
 
-    train = select_split(ds, "train")
-    if not train:
-        splits = sorted({str(ds[i].meta.get("split", "train")) for i in range(len(ds))})
-        raise ConfigError(f"dataset has no 'train' clips with motion and audio (splits present: {splits})")
-    motion = ds[train[0]].motion
-    return int(motion.shape[1]), int(motion.shape[2])
+    try:
+        return ds[index]
+    except DataFileError as exc:
+        raise ConfigError(str(exc)) from None
+    except (ValueError, OSError) as exc:
+        raise ConfigError(f"dataset: clip {index}: {exc}") from None
 
 
-def _data_hashes(ds: Any, cfg: Any) -> dict[str, Any]:
-    """SHA-256 of every clip's motion and audio arrays (as loaded), and of the dataset config."""
+def _check_clips(ds: Any, cfg: Any) -> tuple[tuple[int, int], dict[str, Any]]:
+    """Read every clip once before training: ``((joints, dims) of the first training clip, hashes)``.
+
+    A corrupt or unreadable file fails here, before any folder is made, with one line naming it.
+    The hashes (SHA-256 of every clip's arrays, and of the dataset config) go into ``train.json``.
+    """
     clips = {}
+    shape: tuple[int, int] | None = None
+    splits = set()
     for i in range(len(ds)):
-        clip = ds[i]
-        digest = hashlib.sha256()
-        for arr in (clip.motion, clip.audio):
-            if arr is not None:
-                digest.update(np.ascontiguousarray(arr, dtype=np.float32).tobytes())
-        clips[clip.id] = {"sha256": digest.hexdigest(), "split": str(clip.meta.get("split", "train"))}
+        clip = _clip(ds, i)
+        split = str(clip.meta.get("split", "train"))
+        splits.add(split)
+        if shape is None and split == "train" and clip.motion is not None and clip.audio is not None:
+            shape = (int(clip.motion.shape[1]), int(clip.motion.shape[2]))
+        clips[clip.id] = {"sha256": _clip_sha256(clip), "split": split}
+    if shape is None:
+        raise ConfigError(
+            f"dataset has no 'train' clips with motion and audio (splits present: {sorted(splits)})"
+        )
     node = json.dumps(to_container(cfg.dataset), sort_keys=True, default=str)
-    return {"config_sha256": hashlib.sha256(node.encode()).hexdigest(), "clips": clips}
+    return shape, {"config_sha256": hashlib.sha256(node.encode()).hexdigest(), "clips": clips}
+
+
+def _clip_sha256(clip: Any) -> str:
+    """SHA-256 of a clip's motion and audio arrays (as loaded)."""
+    digest = hashlib.sha256()
+    for arr in (clip.motion, clip.audio):
+        if arr is not None:
+            digest.update(np.ascontiguousarray(arr, dtype=np.float32).tobytes())
+    return digest.hexdigest()
 
 
 def find_model(folder: Path) -> Path:
@@ -146,8 +171,15 @@ def train_method(
     overrides: Sequence[str] = (),
     seed: int | None = None,
     command: Sequence[str] | None = None,
+    resume: bool = False,
 ) -> TrainResult:
-    """Train ``method`` on ``data`` (``synth`` or a folder) and save the model under ``out``."""
+    """Train ``method`` on ``data`` (``synth`` or a folder) and save the model under ``out``.
+
+    Everything is checked before ``out`` is made: the config (every key), the dataset's options and
+    every clip's files (one ``ConfigError`` naming the file). Stages finished by an earlier run into
+    ``out`` are reused; ``resume`` continues a stage an interrupted run left half-trained from its
+    last checkpoint (bit-identical to an uninterrupted run, see :mod:`momu.engine.context`).
+    """
     from momu.engine import RunConfig, make_accelerator
     from momu.engine.context import RunContext, stage_key_hash
     from momu.engine.preflight import open_dataset
@@ -155,7 +187,7 @@ def train_method(
 
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=overrides)
     ds = open_dataset(cfg.dataset)
-    joints, dims = _motion_shape(ds)
+    (joints, dims), hashes = _check_clips(ds, cfg)
     shape = [f"method.encoder.num_joints={joints}", f"method.encoder.joint_dims={dims}"]
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=[*overrides, *shape])
     run_seed = int(cfg.get("seed", 0) if seed is None else seed)
@@ -163,7 +195,7 @@ def train_method(
     save_config(cfg, out / "config.yaml")
     start = time.time()
     accelerator = make_accelerator(RunConfig(tracker="none", seed=run_seed), out, f"train-{method}", {})
-    ctx = RunContext(accelerator=accelerator, out_dir=out)
+    ctx = RunContext(accelerator=accelerator, out_dir=out, resume=resume)
     runner = build_component(cfg.method, "methods")
     data_key = to_container(cfg.dataset)
     model = runner.fit(ctx, ds, data_key, run_seed)
@@ -176,7 +208,7 @@ def train_method(
         "preset": preset,
         "data": data,
         "seed": run_seed,
-        "data_hashes": _data_hashes(ds, cfg),
+        "data_hashes": hashes,
         "versions": package_versions(),
         "wall_time_s": round(time.time() - start, 1),
         "stages": dict(ctx.trained),

@@ -13,6 +13,7 @@ import torch
 from tests.unit.test_engine import CFG, _accelerator, _train
 
 from momu.engine import TrainConfig
+from momu.engine import signals as signals_mod
 from momu.engine import state as state_mod
 from momu.engine import trainer as trainer_mod
 from momu.engine.context import stage_identity, stage_key_hash
@@ -241,7 +242,7 @@ def test_a_trainer_whose_launcher_died_checkpoints_and_stops(
         calls["n"] += 1
         return parent if calls["n"] < 4 else 1  # re-parented to init after a few steps
 
-    monkeypatch.setattr(trainer_mod.os, "getppid", getppid)
+    monkeypatch.setattr(signals_mod.os, "getppid", getppid)
     acc = _accelerator(tmp_path)
     with pytest.raises(trainer_mod.Preempted, match="accelerate launcher") as err:
         _train(acc, tmp_path / "ckpt", FINISHED)

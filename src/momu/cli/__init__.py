@@ -73,8 +73,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.extra_overrides = list(extra)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    action = getattr(args, "action", None)
+    prog = " ".join(["momu", args.command, *([action] if action else [])])
     try:
         return int(args.func(args) or 0)
     except USAGE_ERRORS as exc:
-        action = getattr(args, "action", None)
-        return fail(" ".join(["momu", args.command, *([action] if action else [])]), exc)
+        return fail(prog, exc)
+    except KeyboardInterrupt:  # Ctrl-C: one line, the shell's status for SIGINT (docs/errors.md)
+        sys.stderr.write(f"{prog}: interrupted (Ctrl-C)\n")
+        return 130

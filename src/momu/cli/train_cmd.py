@@ -3,8 +3,12 @@
     momu train momu --data synth --out runs/momu                       # synth_dance, the cpu preset
     momu train momu --data ../shared/data/dance_with_melody --out runs/dwm
     momu train momu --preset smoke --out /tmp/t method.train_diffusion.steps=10
+    momu train momu --out runs/momu --resume                           # after SIGTERM / Ctrl-C / a kill
 
 The result is ``<out>/models/<method>-<hash>/``: ``momu generate dance --model <out>`` uses it.
+Exit status (docs/errors.md): 0 done, 2 a bad argument, key, value or data file (one line, nothing
+written), 143 stopped by SIGTERM and 130 by Ctrl-C (one line; a stage in training wrote a
+checkpoint first: rerun with ``--resume`` to continue from it).
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from momu.config import ConfigError
+from momu.errors import fail, one_line
 
 __all__ = ["add_parser", "run"]
 
@@ -30,12 +35,19 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder (parts/, models/, train.json)")
     p.add_argument("--seed", type=int, help="training seed (default: the config's)")
     p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a stage an interrupted run left half-trained from its last checkpoint under --out",
+    )
+    p.add_argument(
         "overrides", nargs="*", help="config overrides key=value (e.g. method.train_diffusion.steps=500)"
     )
     p.set_defaults(func=run, extra_overrides=[])
 
 
 def run(args: argparse.Namespace) -> int:
+    from momu.engine.signals import Interrupted, stop_on_signals
+    from momu.engine.trainer import ResumeError
     from momu.training import train_method
 
     overrides = [*args.overrides, *args.extra_overrides]
@@ -47,17 +59,21 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"momu train: error: --out {args.out} is a file\n")
         return 2
     try:
-        result = train_method(
-            args.method,
-            args.out,
-            data=args.data,
-            dataset=args.dataset,
-            preset=args.preset,
-            overrides=overrides,
-            seed=args.seed,
-        )
-    except (ConfigError, FileNotFoundError) as exc:
-        sys.stderr.write(f"momu train: error: {exc}\n")
-        return 2
+        with stop_on_signals():
+            result = train_method(
+                args.method,
+                args.out,
+                data=args.data,
+                dataset=args.dataset,
+                preset=args.preset,
+                overrides=overrides,
+                seed=args.seed,
+                resume=args.resume,
+            )
+    except (ConfigError, FileNotFoundError, ResumeError) as exc:
+        return fail("momu train", exc)
+    except Interrupted as exc:
+        sys.stderr.write(f"momu train: {one_line(exc)}\n")
+        return exc.status
     sys.stdout.write(f"{result.model}\n")
     return 0

@@ -25,7 +25,13 @@ from typing import Any
 from omegaconf import DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import ConfigAttributeError, ConfigKeyError, OmegaConfBaseException
 
-from momu.config.keys import field_names, find_env_interpolation, innermost_node
+from momu.config.keys import (
+    ALLOWED_RESOLVERS,
+    field_names,
+    find_built_interpolation,
+    find_refused_resolver,
+    innermost_node,
+)
 from momu.io import atomic_write_text
 from momu.registry import KINDS, Entry, PluginError, RegistryError, registry_for, singular
 
@@ -155,13 +161,35 @@ def _validate_tree(tree: Mapping[str, Any], path: str) -> dict[str, Any]:
     return out
 
 
-def _refuse_env_interpolation(cfg: Any) -> None:
-    key = find_env_interpolation(_plain(cfg, resolve=False))
-    if key is not None:
+def _refuse_resolvers(cfg: Any) -> None:
+    """Refuse ``${oc.env:...}`` and every resolver not in the allow-list, before anything is resolved."""
+    found = find_refused_resolver(_plain(cfg, resolve=False))
+    if found is None:
+        return
+    key, name = found
+    if name == "oc.env":
         raise ConfigError(
             f"{key}: ${{oc.env:...}} interpolation is disabled in momu configs (it would copy "
             "environment values such as tokens into printed and saved configs); write the value, or "
             "let the shell expand it in an override (key=$VAR)",
+            key=key,
+        )
+    allowed = ", ".join(f"${{{r}:...}}" for r in ALLOWED_RESOLVERS)
+    raise ConfigError(
+        f"{key}: resolver {name!r} is disabled in momu configs (only ${{other.key}} references and "
+        f"{allowed} are resolved: a resolver can build ${{oc.env:...}} and copy environment values "
+        "into printed and saved configs); write the value",
+        key=key,
+    )
+
+
+def _refuse_built_interpolations(resolved: Any) -> None:
+    """Refuse a resolved value that holds ``${`` (an interpolation assembled while resolving)."""
+    key = find_built_interpolation(resolved)
+    if key is not None:
+        raise ConfigError(
+            f"{key}: resolves to text holding '${{' (an interpolation assembled from escaped text or "
+            "pieces, which would be resolved again); write the value",
             key=key,
         )
 
@@ -191,15 +219,18 @@ def _check_schema(resolved: dict[str, Any], schema: type, fill_defaults: bool) -
 def validate(cfg: Any, schema: type | None = None, *, fill_defaults: bool = True) -> DictConfig:
     """Validate every component node of ``cfg`` (and every other key against ``schema``); freeze it.
 
-    ``${oc.env:...}`` interpolations are refused (they would copy secrets into saved configs).
+    ``${oc.env:...}`` interpolations are refused (they would copy secrets into saved configs), and so
+    is every resolver but :data:`~momu.config.keys.ALLOWED_RESOLVERS` and any resolved value that
+    still holds ``${`` (``oc.decode`` and pieces can assemble an ``oc.env`` call while resolving).
     With ``fill_defaults=False`` the schema checks keys and types but adds no missing keys.
 
     Raises:
         ConfigError: the first bad key, named by its dotted path, with the valid keys of the
             innermost node it falls in.
     """
-    _refuse_env_interpolation(cfg)
+    _refuse_resolvers(cfg)
     tree = _plain(cfg)
+    _refuse_built_interpolations(tree)
     if not isinstance(tree, Mapping):
         raise ConfigError(f"a config must be a mapping at the top level, got {type(tree).__name__}")
     resolved = _validate_tree(tree, "")

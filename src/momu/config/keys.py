@@ -11,14 +11,34 @@ import dataclasses
 import re
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
-__all__ = ["innermost_node", "field_names", "ENV_INTERPOLATION", "find_env_interpolation"]
+from omegaconf import grammar_parser
+from omegaconf.errors import GrammarParseError
+from omegaconf.grammar.gen.OmegaConfGrammarParser import OmegaConfGrammarParser
+
+__all__ = [
+    "innermost_node",
+    "field_names",
+    "ENV_INTERPOLATION",
+    "ALLOWED_RESOLVERS",
+    "find_refused_resolver",
+    "find_built_interpolation",
+]
 
 ENV_INTERPOLATION = re.compile(r"\$\{\s*oc\.env\s*:")
 """``${oc.env:VAR}``: refused in momu configs (it would copy environment values — tokens,
 passwords — into printed configs, error messages, ``config.yaml`` and ``results.json``)."""
+
+ALLOWED_RESOLVERS = ("oc.select",)
+"""The only resolvers a momu config may call, besides references to other keys (``${a.b}``).
+
+Any other — ``oc.env``, and every resolver that builds an interpolation while the config is
+resolved (``oc.decode``, ``oc.create``), which could spell ``${oc.env:...}`` out of pieces — is
+refused wherever it appears (:func:`find_refused_resolver`), and a resolved value may not hold
+``${`` (:func:`find_built_interpolation`): it would be resolved again the next time the config is.
+"""
 
 
 def field_names(cls: type) -> list[str]:
@@ -90,18 +110,51 @@ def innermost_node(schema: type, dotted: str) -> tuple[str, type]:
     return ".".join(prefix), cls
 
 
-def find_env_interpolation(tree: Any, path: str = "") -> str | None:
-    """The dotted key of the first string holding ``${oc.env:...}`` in ``tree``, else ``None``."""
+def _strings(tree: Any, path: str = "") -> Iterator[tuple[str, str]]:
+    """``(dotted key, string)`` for every string of a plain config tree, in order."""
     if isinstance(tree, str):
-        return (path or "<root>") if ENV_INTERPOLATION.search(tree) else None
-    if isinstance(tree, Mapping):
+        yield path or "<root>", tree
+    elif isinstance(tree, Mapping):
         for key, value in tree.items():
-            found = find_env_interpolation(value, f"{path}.{key}" if path else str(key))
-            if found is not None:
-                return found
+            yield from _strings(value, f"{path}.{key}" if path else str(key))
     elif isinstance(tree, (list, tuple)):
         for i, value in enumerate(tree):
-            found = find_env_interpolation(value, f"{path}[{i}]")
-            if found is not None:
-                return found
+            yield from _strings(value, f"{path}[{i}]")
+
+
+def resolver_names(text: str) -> list[str]:
+    """The resolvers the interpolations of ``text`` call, as written (``["oc.env"]``); escaped
+    ``\\${...}`` is text, not an interpolation. A name built by an interpolation (``${${x}:y}``)
+    comes back as written, so it is in no allow-list. Text OmegaConf cannot parse calls nothing
+    (resolving it fails on its own)."""
+    if "${" not in text:
+        return []
+    try:
+        tree = grammar_parser.parse(text)
+    except GrammarParseError:
+        return []
+    names: list[str] = []
+    stack: list[Any] = [tree]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, OmegaConfGrammarParser.InterpolationResolverContext):
+            names.append(node.getChild(1).getText())
+        stack.extend(node.getChild(i) for i in reversed(range(node.getChildCount())))
+    return names
+
+
+def find_refused_resolver(tree: Any) -> tuple[str, str] | None:
+    """``(dotted key, resolver)`` of the first call of a resolver not in :data:`ALLOWED_RESOLVERS`."""
+    for key, text in _strings(tree):
+        if ENV_INTERPOLATION.search(text):  # escaped or not: never an environment value
+            return key, "oc.env"
+        for name in resolver_names(text):
+            if name not in ALLOWED_RESOLVERS:
+                return key, name
     return None
+
+
+def find_built_interpolation(resolved: Any) -> str | None:
+    """The dotted key of the first *resolved* string still holding ``${`` (an interpolation built
+    while resolving, from escaped text or pieces: it would be resolved the next time), else ``None``."""
+    return next((key for key, text in _strings(resolved) if "${" in text), None)

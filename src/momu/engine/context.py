@@ -12,10 +12,19 @@ stored under ``<out>/parts/<name>-<hash(key)>/``, so
   retraining them;
 * a changed config changes the key and trains a new stage — never a stale reuse, also not of a
   stage trained by a different number of processes.
+
+A stage is seeded from ``(run seed, stage name)`` alone (:func:`stage_seed`): :meth:`RunContext.stage`
+seeds torch, numpy and Python's RNG before it builds the stage's module (pass a *builder*, so the
+initial weights are drawn there) and before it builds the data and trains, and the training loop
+seeds its noise and data order from the same number. A stage's weights therefore do not depend on
+what ran before it in the process — on whether the stages it builds on were trained just now or
+loaded from the cache, nor on other rows or seeds — so a run resumed after a kill, at any moment,
+trains every remaining stage exactly as an uninterrupted run does.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import fcntl
 import functools
 import hashlib
@@ -31,10 +40,12 @@ from typing import Any, TypeVar
 
 import torch
 from accelerate import Accelerator
+from accelerate.utils import set_seed
 from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
+from momu.engine.progress import JobProgress
 from momu.engine.provenance import git_commit
 from momu.engine.trainer import (
     WEIGHT_NEUTRAL_FIELDS,
@@ -46,7 +57,7 @@ from momu.engine.trainer import (
 from momu.io import read_json, write_json
 from momu.weights_io import write_safetensors
 
-__all__ = ["RunContext", "stage_key_hash", "run_facts", "stage_identity"]
+__all__ = ["RunContext", "stage_key_hash", "run_facts", "stage_identity", "stage_seed", "STAGE_SEEDING"]
 
 log = logging.getLogger(__name__)
 
@@ -57,9 +68,27 @@ REMEMBERED = 4
 unit needs three, its training clips with their normalisers and two evaluation sets."""
 
 
+STAGE_SEEDING = "seed+name"
+"""How stages are seeded (:func:`stage_seed`); part of every stage's identity, so a stage cached
+under the former scheme (one seed for the whole method, drawn once at its start) is not mixed with
+stages seeded this way."""
+
+
+def stage_seed(seed: int, name: str) -> int:
+    """The seed of stage ``name`` in a run seeded ``seed``: a function of the two alone (< 2**31)."""
+    digest = hashlib.sha256(f"{int(seed)}/{name}".encode()).digest()
+    return int.from_bytes(digest[:4], "big") & 0x7FFFFFFF
+
+
 def stage_key_hash(key: Mapping[str, Any]) -> str:
-    """A short, stable hash of a stage key (JSON with sorted keys)."""
-    text = json.dumps(key, sort_keys=True, default=str)
+    """A short, stable hash of a stage key (JSON with sorted keys).
+
+    Weight-neutral training fields (checkpoint and logging intervals, :data:`WEIGHT_NEUTRAL_FIELDS`)
+    and fast-path fields at their defaults are left out, here as in :func:`stage_identity`: a
+    stage's key holds the hash of the stage it builds on (``after``), and changing
+    ``checkpoint_every`` of stage 1 must not rename stages 2 and 3.
+    """
+    text = json.dumps(_without_neutral(without_later_defaults(dict(key))), sort_keys=True, default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 
 
@@ -94,7 +123,11 @@ def stage_identity(key: Mapping[str, Any], accelerator: Accelerator, cfg: TrainC
 
     Fast-path fields at their defaults are left out too (:func:`~momu.engine.trainer.without_later_defaults`).
     """
-    return {**_without_neutral(without_later_defaults(dict(key))), "run": run_facts(accelerator, cfg)}
+    return {
+        **_without_neutral(without_later_defaults(dict(key))),
+        "run": run_facts(accelerator, cfg),
+        "seeding": STAGE_SEEDING,
+    }
 
 
 @dataclass
@@ -108,6 +141,7 @@ class RunContext:
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
     parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
     derived: OrderedDict[str, Any] = field(default_factory=OrderedDict, repr=False)  # see remember()
+    progress: JobProgress | None = None  # the table run's progress line: told every stage's steps
 
     @contextmanager
     def timed(self, category: str) -> Iterator[None]:
@@ -204,7 +238,7 @@ class RunContext:
         self,
         name: str,
         key: Mapping[str, Any],
-        model: nn.Module,
+        model: nn.Module | Callable[[], nn.Module],
         dataset: Dataset[Any] | Callable[[], Dataset[Any]],
         loss_fn: LossFn,
         cfg: TrainConfig,
@@ -212,13 +246,21 @@ class RunContext:
     ) -> nn.Module:
         """Train ``model`` as stage ``name`` — or load it if a stage with the same key was trained.
 
-        ``dataset`` may be a callable so that reusing a cached stage does not build its data.
-        Returns the trained (unwrapped) model in eval mode.
+        The stage is seeded from ``(cfg.seed, name)`` (:func:`stage_seed`) before anything else:
+        ``model`` should be a *builder* (a callable returning the module) so that its initial
+        weights are drawn from that seed, whatever ran before; a built module is taken as it is (a
+        stage that continues training another stage's weights). ``dataset`` may be a callable so
+        that reusing a cached stage does not build its data; it is built after the module. The
+        training loop gets ``cfg`` with the stage's seed (its noise and data order). Returns the
+        trained (unwrapped) model in eval mode.
         """
         identity = stage_identity(key, self.accelerator, cfg)
         folder = self.parts_dir / self.stage_folder_name(name, key, cfg)
+        seeded = dataclasses.replace(cfg, seed=stage_seed(cfg.seed, name))
         with self.lock(folder.name):
-            return self._stage(name, identity, folder, model, dataset, loss_fn, cfg, collate_fn)
+            set_seed(seeded.seed)  # torch (and CUDA), numpy, Python: the same on every process
+            module = model if isinstance(model, nn.Module) else model()
+            return self._stage(name, identity, folder, module, dataset, loss_fn, seeded, collate_fn)
 
     def _stage(
         self,
@@ -237,6 +279,8 @@ class RunContext:
             model.to(self.accelerator.device).eval()
             self.mark_reused(folder.name, folder / "stage.json")
             log.info("stage %s: reusing %s", name, folder)
+            if self.progress is not None:
+                self.progress.stage_done(name, cfg.steps, "reused")
             return model
         data = dataset() if callable(dataset) else dataset
         with self.timed(f"train {name}"):
@@ -250,12 +294,20 @@ class RunContext:
                 checkpoint_root=folder / "checkpoints",
                 collate_fn=collate_fn,
                 resume=self.resume,
+                on_step=None if self.progress is None else functools.partial(self.progress.stage_step, name),
             )
+        if self.progress is not None:
+            self.progress.stage_done(name, cfg.steps, "trained")
         if self.accelerator.is_main_process:
             write_safetensors(weights, trained.state_dict())
             write_json(
                 folder / "stage.json",
-                {"name": name, "key": dict(identity), "train": cfg.__dict__, "git_commit": self.commit},
+                {
+                    "name": name,
+                    "key": dict(identity),
+                    "train": cfg.__dict__,  # its seed is the stage's (stage_seed)
+                    "git_commit": self.commit,
+                },
             )
         self.accelerator.wait_for_everyone()
         self.trained[folder.name] = "trained"

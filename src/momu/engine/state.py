@@ -9,7 +9,7 @@ writes nothing as pickle, so the engine saves the same state itself:
 * ``rng_<rank>.safetensors`` + ``rng_<rank>.json`` — torch (CPU and CUDA), numpy and Python RNG
   states of each process;
 * ``trainer.json`` — the step counter and anything else the loop needs to resume;
-* ``complete.json`` — written last: every file of the checkpoint with its size.
+* ``complete.json`` — written last: every file of the checkpoint with its size and SHA-256.
 
 Crash safety (a process may be killed between any two system calls):
 
@@ -23,10 +23,17 @@ Crash safety (a process may be killed between any two system calls):
   save started — a complete ``.staging_<n>`` or ``.replaced_<n>`` whose ``step_<n>`` is missing or
   incomplete is renamed into place — and removes the leftovers; incomplete ``step_*`` folders are
   reported and skipped, never deleted.
+
+Corruption (a disk or copy that changed bytes, not sizes): resuming (:func:`resume_point`) checks
+every file of the newest complete checkpoint against the SHA-256 in its ``complete.json``; a
+checkpoint whose bytes differ is reported (one line naming the file) and skipped, and the stage
+continues from the newest checkpoint that verifies. If checkpoints exist but none is complete and
+intact, resuming refuses (:class:`ResumeError`) instead of silently training from step 0.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -59,6 +66,10 @@ __all__ = [
     "recover_checkpoints",
     "replace_checkpoint",
     "COMPLETE_MARKER",
+    "ResumeError",
+    "checksum_problem",
+    "resume_point",
+    "write_checkpoint",
 ]
 
 log = logging.getLogger(__name__)
@@ -169,14 +180,38 @@ def _step(path: Path) -> int:
     return int(path.name.rsplit("_", 1)[1])
 
 
+class ResumeError(RuntimeError):
+    """``--resume`` found checkpoints but no complete, intact one (nothing to resume from)."""
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def mark_complete(directory: Path, step: int) -> None:
-    """Write ``complete.json`` (every file of ``directory`` and its size); call it last."""
-    files = {
-        p.name: p.stat().st_size
-        for p in sorted(directory.iterdir())
-        if p.is_file() and p.name != COMPLETE_MARKER
+    """Write ``complete.json`` (every file of ``directory``, its size and SHA-256); call it last."""
+    paths = [p for p in sorted(directory.iterdir()) if p.is_file() and p.name != COMPLETE_MARKER]
+    record = {
+        "step": int(step),
+        "files": {p.name: p.stat().st_size for p in paths},
+        "sha256": {p.name: _sha256(p) for p in paths},
     }
-    write_json(directory / COMPLETE_MARKER, {"step": int(step), "files": files})
+    write_json(directory / COMPLETE_MARKER, record)
+
+
+def checksum_problem(directory: Path) -> str | None:
+    """``None`` if every file of the complete checkpoint ``directory`` has the SHA-256 its
+    ``complete.json`` lists, else one line naming the first file that does not (a checkpoint written
+    before checksums were recorded is checked by size only)."""
+    sums = read_json(directory / COMPLETE_MARKER).get("sha256") or {}
+    for name, expected in sums.items():
+        if _sha256(directory / name) != expected:
+            return f"{directory / name}: contents differ from the SHA-256 recorded when it was written"
+    return None
 
 
 def is_complete(directory: Path) -> bool:
@@ -259,6 +294,63 @@ def recover_checkpoints(root: Path) -> list[str]:
     for leftover in root.glob(".pruned_*"):
         shutil.rmtree(leftover, ignore_errors=True)
     return notes
+
+
+def resume_point(root: Path, name: str) -> Path | None:
+    """The newest complete checkpoint under ``root`` whose files verify (:func:`checksum_problem`).
+
+    Incomplete and corrupt checkpoints are logged and skipped. Returns ``None`` when ``root`` holds
+    no checkpoint folder at all (the stage starts from step 0). Run :func:`recover_checkpoints` first.
+
+    Raises:
+        ResumeError: ``root`` holds checkpoint folders but none is complete and intact.
+    """
+    skipped = incomplete_checkpoints(root)
+    for folder in skipped:
+        log.warning(
+            "%s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder
+        )
+    bad: list[Path] = []
+    for checkpoint in reversed(checkpoint_dirs(root)):
+        problem = checksum_problem(checkpoint)
+        if problem is None:
+            if bad:
+                log.warning("%s: resuming from the older checkpoint %s", name, checkpoint)
+            return checkpoint
+        log.warning("%s: skipping corrupt checkpoint: %s", name, problem)
+        bad.append(checkpoint)
+    if skipped or bad:
+        found = ", ".join(p.name for p in [*skipped, *bad])
+        raise ResumeError(
+            f"{name}: --resume found no complete checkpoint under {root} that is intact (incomplete or "
+            f"corrupt: {found}); delete {root} to train it from scratch"
+        )
+    return None
+
+
+def write_checkpoint(
+    root: Path, step: int, states: Mapping[str, Any], records: Mapping[str, Any], keep: int
+) -> Path:
+    """Write checkpoint ``step`` of a single-process loop crash-safely and return its folder.
+
+    ``states`` are written with :func:`save_tensors_and_json` (``<stem>.safetensors`` + JSON),
+    ``records`` as ``<stem>.json``; then the marker, the rename into place and pruning to ``keep``.
+    """
+    final = root / f"step_{step:08d}"
+    staging = root / f".staging_{step:08d}"
+    root.mkdir(parents=True, exist_ok=True)
+    for note in recover_checkpoints(root):
+        log.warning("%s", note)
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    for stem, state in states.items():
+        save_tensors_and_json(staging, stem, state)
+    for stem, record in records.items():
+        write_json(staging / f"{stem}.json", record)
+    mark_complete(staging, step)
+    replace_checkpoint(staging, final)
+    prune_checkpoints(root, keep)
+    return final
 
 
 def prune_checkpoints(root: Path, keep: int) -> None:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -32,13 +33,17 @@ from typing import Any
 
 import torch
 from omegaconf import DictConfig
+from tqdm.contrib.logging import logging_redirect_tqdm
 
 from momu.config import ConfigError, save_config, to_container
 from momu.engine.accelerate_setup import TRACKERS, RunConfig, finish_accelerator, make_accelerator
 from momu.engine.context import RunContext
 from momu.engine.preflight import check_datasets, check_outputs, row_config
+from momu.engine.progress import JobProgress, planned_steps
 from momu.engine.provenance import git_commit, package_versions, peak_memory_mib, plugin_sources
 from momu.engine.scores import Scores, as_scores
+from momu.engine.signals import Interrupted, exit_status, stop_on_signals
+from momu.engine.state import ResumeError
 from momu.engine.table_report import render_markdown
 from momu.engine.table_results import compare_row, orderings, summarise_seeds
 from momu.engine.table_units import (
@@ -49,8 +54,7 @@ from momu.engine.table_units import (
     merge_timings,
 )
 from momu.engine.table_workers import run_units_in_workers, serve_units
-from momu.engine.trainer import Preempted
-from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, UsageParser, fail
+from momu.errors import EXIT_PROBLEMS, UsageParser, fail, one_line
 from momu.io import atomic_write_text, write_json
 
 __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "parse_table_args"]
@@ -383,8 +387,24 @@ def _units(spec: TableSpec, configs: Mapping[str, DictConfig], seeds: Sequence[i
 
 
 def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
-    """Run a table recipe; returns the process exit status (2: bad arguments, 143: pre-empted)."""
+    """Run a table recipe; returns the process exit status (docs/errors.md: 2 bad arguments, 143
+    stopped by SIGTERM, 130 by Ctrl-C — one line each; a stage or extractor in training writes a
+    checkpoint first, and ``--resume`` continues from it)."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:  # log lines go above the progress bars instead of through them
+        with stop_on_signals(), logging_redirect_tqdm():
+            return _run_table(spec, argv)
+    except Interrupted as exc:
+        sys.stderr.write(f"{spec.name}: {one_line(exc)}\n")
+        return exc.status
+    except ResumeError as exc:  # --resume found checkpoints, none intact
+        return fail(spec.name, exc)
+    except KeyboardInterrupt:  # before the handlers were installed
+        sys.stderr.write(f"{spec.name}: interrupted (Ctrl-C)\n")
+        return exit_status(signal.SIGINT)
+
+
+def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
     args = parse_table_args(spec, argv)
     try:  # everything is checked before any folder, tracker or model is made
         _check_parallel(args, argv)
@@ -437,6 +457,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     calibration: dict[str, list[Scores]] = {}
     stages: dict[str, str] = {}
     timings: dict[str, dict[str, float]] = {}
+    progress = JobProgress(spec.name, len(units), enabled=accelerator.is_main_process)
+    ctx.progress = progress
     try:
         done = 0
         for row in spec.rows:
@@ -447,7 +469,9 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             for seed in seeds:
                 unit = Unit(row.id, seed)
                 log.info("%s: row %s (%s), seed %d", spec.name, row.id, row.name, seed)
+                progress.start_unit(f"row {row.id} seed {seed}", planned_steps(to_container(cfg)))
                 scores, trained, unit_timings = evaluate_unit(spec.evaluate, ctx, cfg, unit, reuse=reuse)
+                progress.finish_unit()
                 per_seed.append(scores)
                 for folder, how in trained.items():
                     if stages.get(folder) != "trained":
@@ -465,10 +489,12 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
             for seed in seeds:
                 for name, cal in spec.calibrate(ctx, first, seed).items():
                     calibration.setdefault(name, []).append(as_scores(cal))
-    except Preempted as exc:
-        sys.stderr.write(f"{spec.name}: {exc}\n")
+    except Interrupted:
         finish_accelerator(accelerator)
-        return EXIT_PREEMPTED
+        raise
+    finally:
+        progress.close()
+        ctx.progress = None
     for folder, how in ctx.trained.items():  # stages the calibration trained or reused
         stages.setdefault(folder, how)
     merge_timings(timings, ctx.timings)

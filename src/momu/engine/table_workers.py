@@ -31,9 +31,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
+from momu.engine.signals import Interrupted
 from momu.engine.table_units import Unit, cell_name, format_duration
-from momu.engine.trainer import Preempted
-from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS
+from momu.errors import EXIT_PROBLEMS
 from momu.metrics._audio import warm_librosa_kernels
 
 __all__ = ["run_units_in_workers", "serve_units", "worker_argv"]
@@ -42,6 +42,10 @@ log = logging.getLogger(__name__)
 
 _WORKER_FLAGS = ("--jobs", "--rows", "--seeds", "--threads")
 """Flags a worker does not inherit from the parent (it is sent its units and gets its thread count)."""
+
+STOP_GRACE_S = 30.0
+"""How long a stopping parent waits for a worker it sent SIGTERM (the worker finishes its training
+step and writes a checkpoint) before it kills it."""
 
 
 def worker_argv(argv: Sequence[str]) -> list[str]:
@@ -178,10 +182,15 @@ def run_units_in_workers(
                         format_duration(elapsed / done * (len(units) - done)),
                     )  # fmt: skip
         finally:  # an interrupted parent leaves no worker behind
-            for worker in workers:
+            for worker in workers:  # SIGTERM first: a worker in a training step checkpoints and stops
                 if worker.proc.poll() is None:
+                    worker.proc.terminate()
+            for worker in workers:
+                try:
+                    worker.proc.wait(timeout=STOP_GRACE_S)
+                except subprocess.TimeoutExpired:
                     worker.proc.kill()
-                worker.proc.wait()
+                    worker.proc.wait()
     return failed
 
 
@@ -223,9 +232,9 @@ def _run_unit_logged(
                 raise ValueError(f"--worker: unknown row {unit.row}")
             run_unit(unit)
             return 0
-        except Preempted as exc:
+        except Interrupted as exc:  # SIGTERM / Ctrl-C: a stage in training wrote its checkpoint
             sys.stderr.write(f"{exc}\n")
-            return EXIT_PREEMPTED
+            return exc.status
         except Exception:
             traceback.print_exc()
             return EXIT_PROBLEMS

@@ -28,12 +28,10 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import os
 import shutil
-import signal
 import time
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Callable, Mapping
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,16 +52,17 @@ from momu.engine.fast_paths import (
     make_adamw,
     validate_fast_paths,
 )
+from momu.engine.signals import Interrupted, stop_flag
 from momu.engine.state import (
+    ResumeError,
     capture_rng,
-    incomplete_checkpoints,
-    latest_checkpoint,
     load_tensors_and_json,
     mark_complete,
     prune_checkpoints,
     recover_checkpoints,
     replace_checkpoint,
     restore_rng,
+    resume_point,
     save_tensors_and_json,
 )
 from momu.io import read_json, write_json
@@ -169,58 +168,16 @@ _DEFAULTS = {f.name: f.default for f in dataclasses.fields(TrainConfig)}
 _TRAIN_FIELDS = set(_DEFAULTS)
 
 
-class ResumeError(RuntimeError):
-    """``--resume`` found a checkpoint folder without a complete checkpoint (nothing to resume from)."""
+class Preempted(Interrupted):
+    """Raised after SIGTERM or SIGINT (or the launcher's exit) once the checkpoint is written."""
 
-
-class Preempted(RuntimeError):
-    """Raised after a SIGTERM once the checkpoint is written; resume with ``--resume``."""
-
-    def __init__(self, checkpoint: Path, reason: str = "SIGTERM") -> None:
-        super().__init__(f"stopped by {reason}; checkpoint written to {checkpoint}; rerun with --resume")
+    def __init__(self, checkpoint: Path, reason: str = "SIGTERM", status: int = 143) -> None:
+        super().__init__(
+            f"stopped by {reason}; checkpoint written to {checkpoint}; rerun the same command with "
+            "--resume to continue from it",
+            status,
+        )
         self.checkpoint = checkpoint
-
-
-class _StopFlag:
-    """SIGTERM arrived, or the launcher that started this process is gone (an orphaned trainer)."""
-
-    def __init__(self) -> None:
-        from momu.errors import launcher_pid
-
-        self.signalled = False
-        self._launcher = launcher_pid()
-        self._parent = os.getppid()
-
-    @property
-    def orphaned(self) -> bool:
-        return self._launcher is not None and os.getppid() != self._parent
-
-    @property
-    def stop(self) -> bool:
-        return self.signalled or self.orphaned
-
-    @property
-    def reason(self) -> str:
-        return "SIGTERM" if self.signalled else "the exit of its accelerate launcher"
-
-
-@contextmanager
-def _sigterm_flag() -> Iterator[_StopFlag]:
-    """Catch SIGTERM while training; the loop checks the flag after each optimizer step."""
-    flag = _StopFlag()
-
-    def handler(signum: int, frame: Any) -> None:
-        flag.signalled = True
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave signals alone
-        yield flag
-        return
-    try:
-        yield flag
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _any_process(accelerator: Accelerator, *values: bool) -> tuple[bool, ...]:
@@ -262,25 +219,17 @@ def _save(
 def _resume_point(accelerator: Accelerator, root: Path, name: str) -> Path | None:
     """The checkpoint to resume from after recovering interrupted saves; ``None``: nothing under ``root``.
 
+    The newest complete checkpoint whose files match their recorded SHA-256; corrupt or incomplete
+    ones are reported and skipped (:func:`~momu.engine.state.resume_point`).
+
     Raises:
-        ResumeError: ``root`` holds checkpoint folders but none of them is complete.
+        ResumeError: ``root`` holds checkpoint folders but none of them is complete and intact.
     """
     if accelerator.is_main_process:
         for note in recover_checkpoints(root):
             log.warning("stage %s: %s", name, note)
     accelerator.wait_for_everyone()
-    skipped = incomplete_checkpoints(root)
-    for folder in skipped:
-        log.warning(
-            "stage %s: skipping incomplete checkpoint %s (no complete.json or a file is short)", name, folder
-        )
-    checkpoint = latest_checkpoint(root)
-    if checkpoint is None and skipped:
-        raise ResumeError(
-            f"stage {name!r}: --resume found no complete checkpoint under {root} (incomplete: "
-            f"{', '.join(p.name for p in skipped)}); delete {root} to train the stage from scratch"
-        )
-    return checkpoint
+    return resume_point(root, f"stage {name!r}")
 
 
 def _load(accelerator: Accelerator, checkpoint: Path, model: nn.Module, optimizer: Any) -> int:
@@ -326,6 +275,7 @@ def train_stage(
     checkpoint_root: Path,
     collate_fn: Callable[[list[Any]], Any] | None = None,
     resume: bool = False,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> nn.Module:
     """Train ``model`` on ``dataset`` for ``cfg.steps`` optimizer steps and return it unwrapped.
 
@@ -336,6 +286,8 @@ def train_stage(
         loss_fn: ``loss_fn(model, batch)`` returning the loss, or ``(loss, logs)``.
         checkpoint_root: folder of this stage's checkpoints (``step_<n>/``).
         resume: continue from the newest checkpoint under ``checkpoint_root`` if there is one.
+        on_step: called as ``on_step(step, cfg.steps)`` after each optimizer step (and once at the
+            start), on the main process (a job's progress line, :mod:`momu.engine.progress`).
 
     Raises:
         Preempted: SIGTERM arrived; a checkpoint was written first.
@@ -385,10 +337,14 @@ def train_stage(
     bar = tqdm(
         total=cfg.steps, initial=step, desc=name, disable=not accelerator.is_local_main_process, leave=False
     )
+    if not accelerator.is_main_process:
+        on_step = None
+    if on_step is not None:
+        on_step(step, cfg.steps)
     model.train()
     meter = StepMeter()
     last_save = time.monotonic()
-    with _sigterm_flag() as flag, attention_kernels(cfg.attention):
+    with stop_flag() as flag, attention_kernels(cfg.attention), closing(bar):  # closed also when stopped
         while step < cfg.steps:
             sampler = getattr(loader, "set_epoch", None)
             if sampler is not None:
@@ -410,6 +366,8 @@ def train_stage(
                     continue
                 step += 1
                 bar.update(1)
+                if on_step is not None:
+                    on_step(step, cfg.steps)
                 meter.add({"loss": loss, **logs})
                 if step % cfg.log_every == 0 or step == cfg.steps:
                     count = cfg.log_every if step % cfg.log_every == 0 else step % cfg.log_every
@@ -428,7 +386,9 @@ def train_stage(
                 if stop:
                     meter.check(name)
                     raise Preempted(
-                        _save(accelerator, checkpoint_root, step, model, optimizer, cfg), flag.reason
+                        _save(accelerator, checkpoint_root, step, model, optimizer, cfg),
+                        flag.reason,
+                        flag.status,
                     )
                 every = cfg.checkpoint_every and step % cfg.checkpoint_every == 0
                 if (every or due) and step < cfg.steps:
@@ -438,7 +398,6 @@ def train_stage(
                 if step >= cfg.steps:
                     break
             epoch, skip = epoch + 1, 0
-    bar.close()
     meter.check(name)
     _save(accelerator, checkpoint_root, step, model, optimizer, cfg)
     model.eval()

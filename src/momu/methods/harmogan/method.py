@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -159,33 +159,47 @@ class HarmoGAN:
         c = self.cfg
         joints = int(dances[0].motion.shape[1])
         nodes = self.nodes(joints)
-        generator: nn.Module = build_component(nodes["generator"], "encoders")
         pre_keys, adv_keys = self.stage_keys(
             data_key, joints, len(units), ctx.accelerator.num_processes, seed
         )
         pre_cfgs = self._segments(c.pretrain, len(units), ctx.accelerator.num_processes, seed)
         adv_cfgs = self._segments(c.adversarial, len(units), ctx.accelerator.num_processes, seed)
         log.info("harmogan: %d meter units of %.1f s; seed %d", len(units), c.meter.unit_seconds, seed)
-        pretrain = PretrainStage(generator, c.pretrain_weights, c.kl_temperature)
+
+        # The first segment of each stage builds its new modules under its own seed
+        # (RunContext.stage); later segments continue the same modules.
+        def build_pretrain() -> PretrainStage:
+            generator = build_component(nodes["generator"], "encoders")
+            return PretrainStage(generator, c.pretrain_weights, c.kl_temperature)
+
+        pretrain: nn.Module | Callable[[], nn.Module] = build_pretrain
         for i, (key, tc) in enumerate(zip(pre_keys, pre_cfgs)):
-            ctx.stage(f"harmogan_pretrain_{i}", key, pretrain, units, stage_step, tc, collate_units)
-        gan = build_component(c.gan_loss, "losses")
-        if not isinstance(gan, GANLoss):
-            raise ValueError(f"method.gan_loss: expected the 'gan' loss, got {type(gan).__name__}")
-        stage = AdversarialStage(
-            generator,
-            build_component(nodes["cross_modal"], "encoders"),
-            build_component(nodes["spatiotemporal"], "encoders"),
-            gan_loss=gan,
-            harmony_loss=self.harmony_loss(),
-            weights=c.weights,
-            kl_temperature=c.kl_temperature,
-            fps=c.fps,
-            generator_weight_decay=c.adversarial.generator_weight_decay,
-            discriminator_weight_decay=c.adversarial.discriminator_weight_decay,
-        )
+            pretrain = ctx.stage(
+                f"harmogan_pretrain_{i}", key, pretrain, units, stage_step, tc, collate_units
+            )
+        assert isinstance(pretrain, PretrainStage)
+        generator: nn.Module = pretrain.generator
+
+        def build_adversarial() -> AdversarialStage:
+            gan = build_component(c.gan_loss, "losses")
+            if not isinstance(gan, GANLoss):
+                raise ValueError(f"method.gan_loss: expected the 'gan' loss, got {type(gan).__name__}")
+            return AdversarialStage(
+                generator,
+                build_component(nodes["cross_modal"], "encoders"),
+                build_component(nodes["spatiotemporal"], "encoders"),
+                gan_loss=gan,
+                harmony_loss=self.harmony_loss(),
+                weights=c.weights,
+                kl_temperature=c.kl_temperature,
+                fps=c.fps,
+                generator_weight_decay=c.adversarial.generator_weight_decay,
+                discriminator_weight_decay=c.adversarial.discriminator_weight_decay,
+            )
+
+        stage: nn.Module | Callable[[], nn.Module] = build_adversarial
         for i, (key, tc) in enumerate(zip(adv_keys, adv_cfgs)):
-            ctx.stage(f"harmogan_adversarial_{i}", key, stage, units, stage_step, tc, collate_units)
+            stage = ctx.stage(f"harmogan_adversarial_{i}", key, stage, units, stage_step, tc, collate_units)
         mean_pose = np.concatenate([d.motion[: d.split_frame] for d in dances]).mean(axis=0)
         model = HarmoGANModel(c, generator.eval(), stats, mean_pose)
         return model, stage_key_hash(adv_keys[-1])

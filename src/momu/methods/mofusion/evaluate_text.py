@@ -134,10 +134,13 @@ def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> 
     ecfg = TextMotionEvaluatorConfig(
         **{**params, "channels": channels, "vocab": vocab_from([t for c in clips for t in c.text], 32)}
     )
-    torch.manual_seed(seed)
-    model = TextMotionEvaluator(ecfg)
     poses = _poses(clips, fps)
-    model.set_statistics(poses)
+
+    def build() -> TextMotionEvaluator:  # under the stage's own seed (RunContext.stage)
+        model = TextMotionEvaluator(ecfg)
+        model.set_statistics(poses)
+        return model
+
     key = {
         "stage": "t2m_evaluator",
         "data": to_container(cfg.dataset),
@@ -151,7 +154,7 @@ def evaluator_for(ctx: RunContext, cfg: DictConfig, dataset: Any, seed: int) -> 
         trained = ctx.stage(
             "t2m_evaluator",
             key,
-            model,
+            build,
             lambda: _Pairs(poses, [list(c.text) for c in clips]),
             stage_step,
             train,

@@ -20,9 +20,7 @@ import logging
 from collections.abc import Mapping
 from typing import Any
 
-import torch
-
-from momu.config import build_component, to_container
+from momu.config import build_component, instantiate_config, to_container
 from momu.encoders.text_transformer import WordTokenizer
 from momu.engine.context import RunContext
 from momu.features.mofusion_pose import pose_channels
@@ -40,7 +38,7 @@ from momu.methods.mofusion.data import (
 )
 from momu.methods.mofusion.model import MoFusionModel
 from momu.methods.mofusion.stages import MoFusionStage, stage_step
-from momu.registry import BACKBONES, LOSSES, METHODS
+from momu.registry import BACKBONES, ENCODERS, LOSSES, METHODS
 
 __all__ = ["MoFusion", "build_mofusion", "node_with"]
 
@@ -59,6 +57,16 @@ def node_with(node: Any, registry: Any, **values: Any) -> dict[str, Any]:
     fields = {f.name for f in dataclasses.fields(entry.config)} if entry.config is not None else set()
     plain.update({k: v for k, v in values.items() if k in fields})
     return plain
+
+
+def text_width(node: Mapping[str, Any]) -> int:
+    """The token width of the text encoder ``node`` names: its config's ``width``, else a built one's."""
+    entry = ENCODERS.get(str(node["name"]))
+    if entry.config is not None:
+        cfg = instantiate_config(entry, {k: v for k, v in node.items() if k != "name"})
+        if hasattr(cfg, "width"):
+            return int(cfg.width)
+    return int(build_component(dict(node), "encoders").width)
 
 
 class MoFusion:
@@ -140,21 +148,20 @@ class MoFusion:
         poses = [clip_pose(cl, c.fps, root) for cl in clips]
         mels = [clip_mel(cl) for cl in clips] if c.task == "music" else None
         norms = MoFusionNormalizers.fit(poses, mels)
-        torch.manual_seed(seed)  # initial weights are part of the stage (the key holds the seed)
-        text_encoder = None
-        width = 0
-        if text_node is not None:
-            text_encoder = build_component(text_node, "encoders")
-            width = int(text_encoder.width)
-            if not c.train_text:
-                text_encoder.requires_grad_(False)
+        width = text_width(text_node) if text_node is not None else 0
         backbone_node, loss_node = self.nodes(skeleton, text_node, width)
-        backbone = build_component(backbone_node, "backbones")
-        scheduler = build_component(c.scheduler, "schedulers")
-        loss = build_component(loss_node, "losses", scheduler=scheduler)
-        loss.set_statistics(norms.pose.mean, norms.pose.std)
-        stage = MoFusionStage(backbone, loss, text_encoder)
         key = self.stage_key(data_key, seed, backbone_node, loss_node, text_node)
+
+        def build() -> MoFusionStage:  # under the stage's own seed (RunContext.stage)
+            text_encoder = None
+            if text_node is not None:
+                text_encoder = build_component(text_node, "encoders")
+                if not c.train_text:
+                    text_encoder.requires_grad_(False)
+            scheduler = build_component(c.scheduler, "schedulers")
+            loss = build_component(loss_node, "losses", scheduler=scheduler)
+            loss.set_statistics(norms.pose.mean, norms.pose.std)
+            return MoFusionStage(build_component(backbone_node, "backbones"), loss, text_encoder)
 
         def data() -> Any:
             if c.task == "music":
@@ -165,7 +172,7 @@ class MoFusion:
 
         collate = collate_text if c.task == "text" else None
         train_cfg = dataclasses.replace(c.train, seed=seed)
-        trained = ctx.stage("mofusion", key, stage, data, stage_step, train_cfg, collate)
+        trained = ctx.stage("mofusion", key, build, data, stage_step, train_cfg, collate)
         trained = trained.to("cpu").eval()
         assert isinstance(trained, MoFusionStage)
         model = MoFusionModel(

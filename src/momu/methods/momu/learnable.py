@@ -39,7 +39,7 @@ import torch
 from torch import nn
 from torch.utils.data import Dataset
 
-from momu.config import build_component, to_container
+from momu.config import build_component, instantiate_config, to_container
 from momu.encoders.bicor_vae import BiCoRVAE, align_frames
 from momu.encoders.learnable_motion import LearnableMotionEncoder
 from momu.engine.context import RunContext, stage_key_hash
@@ -51,6 +51,7 @@ from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select
 from momu.methods.momu.method import MoMu
 from momu.methods.momu.model import sample_items
 from momu.methods.momu.stages import stage_step, train_music_vae_stage
+from momu.registry import registry_for
 
 __all__ = [
     "learnable_encoder_node",
@@ -238,22 +239,26 @@ def fit_learnable_motion_to_music(
         raise ValueError("the dataset has no 'train' clips with motion and audio")
     clips = [dataset[i] for i in train_idx]
     norms = MoMuNormalizers.fit(clips, c.sample_rate)
-    torch.manual_seed(seed)
-    vae = method.build_encoder()
-    rates = method.rates(vae)
     keys = method.stage_keys(data_key, seed)
-    cache: dict[str, WindowDataset] = {}
+    cache: dict[str, Any] = {}
+
+    def build_vae() -> Any:
+        cache["vae"] = method.build_encoder()
+        return cache["vae"]
 
     def windows() -> WindowDataset:
         if "w" not in cache:
+            vae = cache["vae"]
             cache["w"] = WindowDataset(
-                clips, norms, rates, c.window_seconds, c.window_hop_seconds,
+                clips, norms, method.rates(vae), c.window_seconds, c.window_hop_seconds,
                 need_mel=vae.music_input == "mel", need_wave=vae.music_input == "waveform",
             )  # fmt: skip
-        return cache["w"]
+        data: WindowDataset = cache["w"]
+        return data
 
-    # Stage 1 (Eq. 10): the momu method's music VAE stage, same key.
-    train_music_vae_stage(ctx, vae, c, keys["music_vae"], windows, seed)
+    # Stage 1 (Eq. 10): the momu method's music VAE stage, same key (and the same seeded builder).
+    vae = train_music_vae_stage(ctx, build_vae, c, keys["music_vae"], windows, seed)
+    rates = method.rates(vae)
     vae = vae.to("cpu").eval()
     vae.freeze_music(True)
 
@@ -267,21 +272,14 @@ def fit_learnable_motion_to_music(
         latent_channels=vae.latent_channels,
         downsample=frames_per_latent,
     )
-    encoder = build_component(enc_node, "encoders")
-    if not isinstance(encoder, LearnableMotionEncoder):
-        raise ValueError(
-            f"learnable_encoder: built a {type(encoder).__name__}, expected LearnableMotionEncoder"
-        )
     music_node, _ = method.backbone_nodes(vae.latent_channels)
-    backbone = build_component(music_node, "backbones")
-    scheduler = build_component(c.scheduler, "schedulers")
-    loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
-    stage = LearnableMotionStage(encoder, backbone, loss, vae.latent_channels)
+    enc_params = {k: v for k, v in enc_node.items() if k != "name"}
+    enc_cfg = instantiate_config(registry_for("encoders").get(enc_node["name"]), enc_params)
     key = {
         "stage": "learnable_motion2music",
         "after": stage_key_hash(keys["music_vae"]),
         "data": keys["music_vae"]["data"],
-        "encoder": {"name": enc_node["name"], **dataclasses.asdict(encoder.cfg)},  # every field, defaults too
+        "encoder": {"name": enc_node["name"], **dataclasses.asdict(enc_cfg)},  # every field, defaults too
         "music_backbone": music_node,
         "scheduler": to_container(c.scheduler),
         "diffusion_loss": to_container(c.diffusion_loss),
@@ -289,8 +287,22 @@ def fit_learnable_motion_to_music(
         "seed": seed,
     }
 
+    def build() -> LearnableMotionStage:  # under the stage's own seed (RunContext.stage)
+        encoder = build_component(enc_node, "encoders")
+        if not isinstance(encoder, LearnableMotionEncoder):
+            raise ValueError(
+                f"learnable_encoder: built a {type(encoder).__name__}, expected LearnableMotionEncoder"
+            )
+        scheduler = build_component(c.scheduler, "schedulers")
+        loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
+        cache["stage"] = LearnableMotionStage(
+            encoder, build_component(music_node, "backbones"), loss, vae.latent_channels
+        )
+        return cache["stage"]
+
     def pairs() -> MotionLatentDataset:
         data = windows()
+        stage = cache["stage"]
         z_music = _encode_music_windows(vae, data)
         stage.set_statistics(z_music)
         motion = torch.stack([it["motion"] for it in data.items])  # (N, n_z · rates' k, J, D)
@@ -300,7 +312,7 @@ def fit_learnable_motion_to_music(
         return MotionLatentDataset(z_music, motion)
 
     trained = ctx.stage(
-        "learnable_motion2music", key, stage, pairs, stage_step, dataclasses.replace(train, seed=seed)
+        "learnable_motion2music", key, build, pairs, stage_step, dataclasses.replace(train, seed=seed)
     )
     assert isinstance(trained, LearnableMotionStage)
     return LearnableMotionToMusic(

@@ -12,7 +12,10 @@ Training (:meth:`MoMu.fit`, every stage through :meth:`momu.engine.context.RunCo
 Stage keys hold everything that determines a stage's weights — its part configs, its training
 config, the dataset config and window, the seed, and the keys of the stages it builds on — so
 rows of a table that share a stage train it once (Table 7 #1 and #3 reuse stage 1; #5–#7 share
-everything and differ only in how they sample).
+everything and differ only in how they sample). Each stage builds its modules under its own seed,
+``(seed, stage name)`` (:meth:`momu.engine.context.RunContext.stage`): the BiCoR-VAE — both VAEs —
+is drawn by stage 1's builder, the contrastive heads by stage 2's, the two denoisers by the
+diffusion stage's, so no stage's weights depend on whether an earlier one was trained or loaded.
 
 Backbone widths are derived, not configured: ``in_channels`` and ``cond_channels`` of both
 backbones are set to the VAE latent width ``d`` when they are fields of the backbone's config
@@ -201,36 +204,47 @@ class MoMu:
         )
         conditions = Conditions.of(c, str(train_clips[0].skeleton or ""))
         plain = not conditions.any_features and conditions.representation == "positions"
-        torch.manual_seed(seed)  # initial weights are part of the stage (the key holds the seed)
-        vae = self.build_encoder()
-        rates = self.rates(vae)
         keys = self.stage_keys(data_key, seed)
-        cache: dict[str, WindowDataset] = {}
+        # Each stage builds its modules under its own seed (RunContext.stage): the initial weights
+        # never depend on whether an earlier stage was trained in this process or loaded.
+        built: dict[str, Any] = {}
+
+        def build_vae() -> BiCoRVAE:
+            built["vae"] = self.build_encoder()
+            return built["vae"]
 
         def windows() -> WindowDataset:
-            if "w" not in cache:
-                cache["w"] = WindowDataset(
+            if "windows" not in built:
+                vae = built["vae"]
+                built["windows"] = WindowDataset(
                     train_clips,
                     norms,
-                    rates,
+                    self.rates(vae),
                     c.window_seconds,
                     c.window_hop_seconds,
                     need_mel=vae.music_input == "mel",
                     need_wave=vae.music_input == "waveform",
                     conditions=None if plain else conditions,
                 )
-                log.info("momu: %d training windows of %.2f s", len(cache["w"]), cache["w"].window_seconds)
-            return cache["w"]
+                log.info(
+                    "momu: %d training windows of %.2f s",
+                    len(built["windows"]),
+                    built["windows"].window_seconds,
+                )
+            data: WindowDataset = built["windows"]
+            return data
 
         # Stage 1: music VAE (+ GAN), Eq. 10.
-        train_music_vae_stage(ctx, vae, c, keys["music_vae"], windows, seed)
+        vae: BiCoRVAE = train_music_vae_stage(ctx, build_vae, c, keys["music_vae"], windows, seed)
+        rates = self.rates(vae)
 
         # Stage 2: motion VAE + rhythmic contrastive loss, music VAE frozen, Eq. 11.
-        vae.freeze_music(True)
-        contrastive = (
-            build_component(c.contrastive_loss, "losses") if c.contrastive_loss is not None else None
-        )
-        stage2 = MotionVAEStage(vae, build_component(c.vae_loss, "losses"), contrastive)
+        def build_stage2() -> MotionVAEStage:
+            vae.freeze_music(True)
+            contrastive = (
+                build_component(c.contrastive_loss, "losses") if c.contrastive_loss is not None else None
+            )
+            return MotionVAEStage(vae, build_component(c.vae_loss, "losses"), contrastive)
 
         def stage2_data() -> WindowDataset:
             data = windows()
@@ -242,7 +256,7 @@ class MoMu:
         ctx.stage(
             "motion_vae",
             keys["motion_vae"],
-            stage2,
+            build_stage2,
             stage2_data,
             stage_step,
             dataclasses.replace(c.train_motion_vae, seed=seed),
@@ -251,25 +265,25 @@ class MoMu:
 
         # Diffusion: θ_a and θ_m on the aligned latents, Eq. 6.
         music_node, motion_node = self.backbone_nodes(vae.latent_channels, conditions)
-        music_bb = build_component(music_node, "backbones")
-        motion_bb = build_component(motion_node, "backbones")
-        scheduler = build_component(c.scheduler, "schedulers")
-        loss = build_component(c.diffusion_loss, "losses", scheduler=scheduler)
         min_frames = None if c.train_min_seconds is None else rates.latent_frames(c.train_min_seconds)
-        diffusion = DiffusionStage(
-            music_bb,
-            motion_bb,
-            loss,
-            vae.latent_channels,
-            min_frames,
-            per_batch=c.train_lengths == "batch",
-            condition_latents=c.condition_latents,
-        )
+
+        def build_diffusion() -> DiffusionStage:
+            scheduler = build_component(c.scheduler, "schedulers")
+            built["diffusion"] = DiffusionStage(
+                build_component(music_node, "backbones"),
+                build_component(motion_node, "backbones"),
+                build_component(c.diffusion_loss, "losses", scheduler=scheduler),
+                vae.latent_channels,
+                min_frames,
+                per_batch=c.train_lengths == "batch",
+                condition_latents=c.condition_latents,
+            )
+            return built["diffusion"]
 
         def latent_data() -> LatentDataset:
             data = windows()
             z_music, z_motion = encode_windows(vae, data)
-            diffusion.set_statistics(z_music, z_motion)
+            built["diffusion"].set_statistics(z_music, z_motion)
             features: dict[str, torch.Tensor] = {
                 key: torch.stack([item[key] for item in data.items])
                 for key in ("f_music", "f_motion")
@@ -277,14 +291,15 @@ class MoMu:
             }
             return LatentDataset(z_music, z_motion, features)
 
-        ctx.stage(
+        diffusion = ctx.stage(
             "diffusion",
             keys["diffusion"],
-            diffusion,
+            build_diffusion,
             latent_data,
             stage_step,
             dataclasses.replace(c.train_diffusion, seed=seed),
         )
+        assert isinstance(diffusion, DiffusionStage)
         diffusion = diffusion.to("cpu").eval()
         skeleton = str(train_clips[0].skeleton or "")
         bones = get_skeleton(skeleton).bones if skeleton else ()

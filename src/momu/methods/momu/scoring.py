@@ -26,6 +26,7 @@ from momu.engine.context import RunContext, stage_key_hash
 from momu.engine.scores import ROW, Scores, components
 from momu.metrics.extractors import TrainConfig as ExtractorTrainConfig
 from momu.metrics.extractors import load_extractor, train_extractor
+from momu.metrics.extractors.training import Checkpointing
 from momu.metrics.kinematic_beats import kinematic_beat_bins, kinematic_beat_frames
 from momu.metrics.loris_scores import aggregate_beat_scores, onset_beat_bins, onset_times, pair_beat_scores
 from momu.registry import METRICS
@@ -295,6 +296,7 @@ def _train_missing_extractors(
                     model_config=_extractor_config(kind, embed),
                     train=train,
                     provenance={"git_commit": ctx.commit},
+                    checkpointing=Checkpointing(path.with_name(f"{path.stem}.checkpoints"), ctx.resume),
                 )
             ctx.accelerator.wait_for_everyone()
             ctx.trained[path.stem] = "trained"

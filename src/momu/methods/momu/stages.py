@@ -27,6 +27,7 @@ returning ``(loss, logs)``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -212,20 +213,30 @@ class DiffusionStage(nn.Module):
         }
 
 
-def train_music_vae_stage(ctx: Any, vae: Any, c: Any, key: Any, windows: Any, seed: int) -> None:
+def train_music_vae_stage(
+    ctx: Any, build_vae: Callable[[], Any], c: Any, key: Any, windows: Any, seed: int
+) -> Any:
     """Train (or reuse) stage 1, MoMu App. A.2 Eq. 10: the music VAE with the GAN term.
 
     Shared by the ``momu`` method and the Table 3–4 learnable-motion model, which use the same
-    stage key so a run that trains both trains stage 1 once. ``c`` is the method config
-    (``discriminator_encoder``, ``gan_loss``, ``vae_loss``, ``train_music_vae``), ``windows`` the
-    training-window dataset (or a callable building it), ``ctx`` the run's
-    :class:`~momu.engine.context.RunContext`.
+    stage key so a run that trains both trains stage 1 once. ``build_vae`` builds the BiCoR-VAE
+    (called once, under the stage's seed, so its initial weights — the motion VAE's too — are a
+    function of the run seed alone); ``c`` is the method config (``discriminator_encoder``,
+    ``gan_loss``, ``vae_loss``, ``train_music_vae``), ``windows`` the training-window dataset (or a
+    callable building it, called after ``build_vae``), ``ctx`` the run's
+    :class:`~momu.engine.context.RunContext`. Returns the BiCoR-VAE with its music VAE trained.
     """
     from momu.config import build_component
 
-    disc = None
-    if vae.music_input == "mel" and c.discriminator_encoder is not None:
-        disc = build_component(c.discriminator_encoder, "encoders")
-    gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
-    stage = MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
-    ctx.stage("music_vae", key, stage, windows, stage_step, dataclasses.replace(c.train_music_vae, seed=seed))
+    built: dict[str, Any] = {}
+
+    def build() -> MusicVAEStage:
+        vae = built["vae"] = build_vae()
+        disc = None
+        if vae.music_input == "mel" and c.discriminator_encoder is not None:
+            disc = build_component(c.discriminator_encoder, "encoders")
+        gan = build_component(c.gan_loss, "losses") if c.gan_loss is not None else None
+        return MusicVAEStage(vae.music_vae, disc, build_component(c.vae_loss, "losses"), gan)
+
+    ctx.stage("music_vae", key, build, windows, stage_step, dataclasses.replace(c.train_music_vae, seed=seed))
+    return built["vae"]

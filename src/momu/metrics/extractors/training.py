@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import shutil
+import time
 from collections.abc import Mapping, Sequence
+from contextlib import closing, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -109,24 +112,103 @@ def _split(
     return np.array(sorted(train), dtype=int), np.array(sorted(val), dtype=int)
 
 
+@dataclass
+class Checkpointing:
+    """Where and how often an extractor's training writes resumable checkpoints.
+
+    Attributes:
+        root: the checkpoint folder (``step_<n>/``, crash-safe: :mod:`momu.engine.state`).
+        resume: continue from the newest intact checkpoint under ``root``.
+        minutes: training minutes between checkpoints (0: only when stopped by a signal).
+    """
+
+    root: Path
+    resume: bool = False
+    minutes: float = 10.0
+
+
+def _loop_state(epoch: int, batch: int, total: float, seen: int, history: list[float]) -> dict[str, Any]:
+    return {"epoch": epoch, "batch": batch, "total": total, "seen": seen, "history": list(history)}
+
+
 def _fit_loop(
     model: nn.Module,
     sample_batch: Any,
     num_samples: int,
     train: TrainConfig,
     desc: str,
+    checkpointing: Checkpointing | None = None,
 ) -> list[float]:
-    """Adam over ``train.epochs`` epochs of ``num_samples`` samples; returns the mean loss per epoch."""
+    """Adam over ``train.epochs`` epochs of ``num_samples`` samples; returns the mean loss per epoch.
+
+    The progress bar counts optimizer steps. With ``checkpointing``, SIGTERM or Ctrl-C (or the exit of
+    an ``accelerate launch`` parent) writes a checkpoint after the current step and raises
+    :class:`~momu.engine.trainer.Preempted`; so does every ``checkpointing.minutes`` of training
+    (without stopping). A run resumed from a checkpoint ends with the same weights as an
+    uninterrupted one: the checkpoint holds the model, Adam, the sampling generator, the epoch's
+    sample order and position, and the global RNG states.
+    """
+    from momu.engine.signals import stop_flag
+    from momu.engine.state import (
+        capture_rng,
+        load_tensors_and_json,
+        recover_checkpoints,
+        restore_rng,
+        resume_point,
+        write_checkpoint,
+    )
+    from momu.engine.trainer import Preempted
+    from momu.io import read_json
+
     opt = torch.optim.Adam(model.parameters(), lr=train.lr, weight_decay=train.weight_decay)
     rng = np.random.default_rng(train.seed + 1)
-    history: list[float] = []
+    slices = batched_slices(num_samples, train.batch_size)
+    epoch, batch, total, seen, history = 0, 0, 0.0, 0, []
+    order = np.arange(num_samples)
+    found = None
+    if checkpointing is not None and checkpointing.resume:
+        for note in recover_checkpoints(checkpointing.root):
+            logger.warning("%s", note)
+        found = resume_point(checkpointing.root, desc)
+    if found is not None:
+        model.load_state_dict(load_tensors_and_json(found, "model"), strict=True)
+        opt.load_state_dict(load_tensors_and_json(found, "optimizer"))
+        saved = load_tensors_and_json(found, "loop")
+        rng.bit_generator.state = read_json(found / "sampler.json")
+        order = np.asarray(saved["order"])
+        restore_rng(load_tensors_and_json(found, "rng"))
+        meta = read_json(found / "progress.json")
+        epoch, batch, total, seen, history = (
+            meta["epoch"], meta["batch"], meta["total"], meta["seen"], meta["history"]
+        )  # fmt: skip
+        logger.info("%s: resumed from %s (epoch %d, batch %d)", desc, found, epoch, batch)
+
+    def save(step: int) -> Path:
+        assert checkpointing is not None
+        return write_checkpoint(
+            checkpointing.root,
+            step,
+            {
+                "model": model.state_dict(),
+                "optimizer": opt.state_dict(),
+                "loop": {"order": order},
+                "rng": capture_rng(),
+            },
+            {"sampler": rng.bit_generator.state, "progress": _loop_state(epoch, batch, total, seen, history)},
+            keep=1,
+        )
+
     model.train()
-    bar = tqdm(range(train.epochs), desc=desc, unit="epoch", leave=False)
-    for _ in bar:
-        order = rng.permutation(num_samples)
-        total, seen = 0.0, 0
-        for sl in batched_slices(num_samples, train.batch_size):
-            x, mask, y = sample_batch(order[sl], rng)
+    steps = train.epochs * len(slices)
+    bar = tqdm(total=steps, initial=epoch * len(slices) + batch, desc=desc, unit="step", leave=False)
+    last_save = time.monotonic()
+    signals = stop_flag() if checkpointing is not None else nullcontext(None)  # else: signals as they are
+    with signals as flag, closing(bar):  # the bar's line is cleared also when stopped
+        while epoch < train.epochs:  # one optimizer step per pass
+            if batch == 0:
+                order = rng.permutation(num_samples)
+                total, seen = 0.0, 0
+            x, mask, y = sample_batch(order[slices[batch]], rng)
             logits = model(x, mask) if mask is not None else model(x)
             loss = F.cross_entropy(logits, y)
             opt.zero_grad(set_to_none=True)
@@ -134,8 +216,19 @@ def _fit_loop(
             opt.step()
             total += float(loss.detach()) * len(y)
             seen += len(y)
-        history.append(total / seen)
-        bar.set_postfix(loss=f"{history[-1]:.4f}")
+            batch += 1
+            bar.update(1)
+            if batch == len(slices):
+                history.append(total / seen)
+                bar.set_postfix(epoch=len(history), loss=f"{history[-1]:.4f}")
+                epoch, batch = epoch + 1, 0
+            if checkpointing is None or flag is None or epoch >= train.epochs:
+                continue
+            if flag.stop:
+                raise Preempted(save(epoch * len(slices) + batch), flag.reason, flag.status)
+            if checkpointing.minutes > 0 and time.monotonic() - last_save >= 60.0 * checkpointing.minutes:
+                save(epoch * len(slices) + batch)
+                last_save = time.monotonic()
     model.eval()
     return history
 
@@ -144,6 +237,7 @@ def train_motion_classifier(
     clips: Sequence[Clip],
     cfg: MotionClassifierConfig | None = None,
     train: TrainConfig | None = None,
+    checkpointing: Checkpointing | None = None,
 ) -> tuple[MotionClassifier, dict[str, Any]]:
     """Train a motion style classifier on labelled clips (MoMu App. B.5).
 
@@ -187,7 +281,7 @@ def train_motion_classifier(
         y = torch.as_tensor(labels[tr_idx][owners[sel]], device=device)
         return torch.from_numpy(np.stack(xs)).to(device), torch.from_numpy(np.stack(ms)).to(device), y
 
-    history = _fit_loop(model, sample_batch, len(owners), train, "motion classifier")
+    history = _fit_loop(model, sample_batch, len(owners), train, "motion classifier", checkpointing)
     summary: dict[str, Any] = {
         "class_names": classes,
         "loss_history": history,
@@ -208,6 +302,7 @@ def train_audio_classifier(
     clips: Sequence[Clip],
     cfg: AudioClassifierConfig | None = None,
     train: TrainConfig | None = None,
+    checkpointing: Checkpointing | None = None,
 ) -> tuple[AudioClassifier, dict[str, Any]]:
     """Train the default audio embedding: a log-mel CNN classifying 0.96 s segments by style.
 
@@ -252,7 +347,7 @@ def train_audio_classifier(
         y = torch.as_tensor(labels[tr_idx][owners[sel]], device=device)
         return torch.from_numpy(np.stack(xs)).to(device), None, y
 
-    history = _fit_loop(model, sample_batch, len(owners), train, "audio classifier")
+    history = _fit_loop(model, sample_batch, len(owners), train, "audio classifier", checkpointing)
     summary: dict[str, Any] = {
         "class_names": classes,
         "loss_history": history,
@@ -281,10 +376,13 @@ def train_extractor(
     model_config: MotionClassifierConfig | AudioClassifierConfig | None = None,
     train: TrainConfig | None = None,
     provenance: Mapping[str, str] | None = None,
+    checkpointing: Checkpointing | None = None,
 ) -> tuple[MotionExtractor | AudioClassifierEmbedding, dict[str, Any]]:
     """Train a ``"motion"`` or ``"audio"`` extractor on labelled clips and (optionally) save it to ``out``.
 
     ``provenance`` is stored in the saved ``.json`` (:func:`~momu.metrics.extractors.storage.save_extractor`).
+    ``checkpointing``: resumable checkpoints (on SIGTERM / Ctrl-C and every few minutes, see
+    :class:`Checkpointing`); they are deleted once the extractor is saved.
 
     Returns the evaluation wrapper (with checkpoint path and sha256 when saved) and the training summary.
     """
@@ -292,14 +390,16 @@ def train_extractor(
         if model_config is not None and not isinstance(model_config, MotionClassifierConfig):
             raise ValueError("model_config must be a MotionClassifierConfig for kind 'motion'")
         model: MotionClassifier | AudioClassifier
-        model, summary = train_motion_classifier(clips, model_config, train)
+        model, summary = train_motion_classifier(clips, model_config, train, checkpointing)
     elif kind in ("audio", "audio_classifier"):
         if model_config is not None and not isinstance(model_config, AudioClassifierConfig):
             raise ValueError("model_config must be an AudioClassifierConfig for kind 'audio'")
-        model, summary = train_audio_classifier(clips, model_config, train)
+        model, summary = train_audio_classifier(clips, model_config, train, checkpointing)
     else:
         raise ValueError(f"extractor kind must be 'motion' or 'audio', got {kind!r}")
     digest = None if out is None else save_extractor(out, model, summary, provenance)
+    if checkpointing is not None and out is not None:
+        shutil.rmtree(checkpointing.root, ignore_errors=True)
     device = (train or TrainConfig()).device
     if isinstance(model, MotionClassifier):
         return MotionExtractor(model, checkpoint=out, sha256=digest, device=device), summary
