@@ -211,3 +211,96 @@ def test_admitted_records_load_as_plain_state_without_running_the_class() -> Non
     evil = raw.replace(b"numpy", b"nompy", 1)  # the arrays inside are still checked
     with pytest.raises(UnsafePickleError):
         safe_loads(evil, records={name})
+
+
+# ---------------------------------------------------------------- issue 34: bypasses of the memory guard
+
+
+class _Built:
+    """A pickle of ``func(*args)`` whose BUILD gives it ``state``; ``kwargs`` through NEWOBJ_EX."""
+
+    def __init__(self, func: object, args: tuple, state: object = None, kwargs: dict | None = None) -> None:
+        self.func, self.args, self.state, self.kwargs = func, args, state, kwargs
+
+    def __reduce_ex__(self, protocol: int) -> tuple:
+        if self.kwargs is not None:
+            return (copyreg.__newobj_ex__, (self.func, self.args, self.kwargs))
+        return (self.func, self.args) if self.state is None else (self.func, self.args, self.state)
+
+
+_core = getattr(np, "_core", None) or np.core
+
+
+@pytest.mark.parametrize("kind", [bytes, bytearray])
+def test_bytes_of_a_size_by_keyword_is_refused(kind: type) -> None:
+    payload = pickle.dumps(_Built(kind, (), kwargs={"source": 2 * 10**9}), protocol=4)
+    assert b"__newobj_ex__" not in payload and len(payload) < 60  # NEWOBJ_EX: 36-ish bytes of pickle
+    with pytest.raises(UnsafePickleError, match=rf"refusing {kind.__name__}\(int 2000000000\)"):
+        safe_loads(payload)
+    # what a real pickle of these types holds still loads
+    assert safe_loads(pickle.dumps(kind(b"\x00ab"), protocol=2)) == kind(b"\x00ab")
+
+
+def test_a_numpy_scalar_without_its_bytes_is_refused() -> None:
+    payload = pickle.dumps(_Built(_core.multiarray.scalar, (np.dtype("V200000000"),)), protocol=4)
+    assert len(payload) < 120  # ~66 bytes would make a 200 MB zero-filled item
+    with pytest.raises(UnsafePickleError, match="a numpy scalar of 200000000 bytes"):
+        safe_loads(payload)
+    with pytest.raises(UnsafePickleError, match="limit"):  # and the declared size counts
+        safe_loads(pickle.dumps(np.bytes_(b"x" * 5000)), max_bytes=1000)
+    assert safe_loads(pickle.dumps(np.float32(2.5))) == np.float32(2.5)
+
+
+def _array_of(dtype: object, raw: bytes, shape: tuple = (1,)) -> _Built:
+    return _Built(_core.multiarray._reconstruct, (np.ndarray, (0,), b"b"), (1, shape, dtype, False, raw))
+
+
+CRAFTED_DTYPES = {
+    "float64 declaring 10^6-byte items": _Built(
+        np.dtype, ("f8", False, True), (3, "<", None, None, None, 10**6, -1, 0)
+    ),
+    "a field past the end of its item": _Built(
+        np.dtype, ("V8", False, True), (3, "|", None, ("a",), {"a": (np.dtype("f8"), 4096)}, 8, 1, 16)
+    ),
+    "a sub-array larger than its item": _Built(
+        np.dtype, ("V8", False, True), (3, "|", (np.dtype("f8"), (1000,)), None, None, 8, 8, 0)
+    ),
+    "fields on a number type": _Built(
+        np.dtype, ("f8", False, True), (3, "<", None, ("a",), {"a": (np.dtype("f8"), 0)}, 8, 8, 16)
+    ),
+    "a state of another version": _Built(
+        np.dtype, ("f8", False, True), (99, "<", None, None, None, -1, -1, 0)
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(CRAFTED_DTYPES))
+def test_crafted_dtype_states_are_refused(name: str) -> None:
+    dtype = CRAFTED_DTYPES[name]
+    with pytest.raises(UnsafePickleError, match="refusing"):
+        safe_loads(pickle.dumps(_array_of(dtype, b"\0" * 8), protocol=4))
+
+
+def test_what_numpys_own_pickles_hold_still_loads() -> None:
+    aligned = np.dtype([("a", "u1"), ("b", "<f8")], align=True)
+    arrays = [
+        np.zeros(3, dtype=[("a", "<f8"), ("b", "S3"), ("c", ">i4", (2,))]),
+        np.zeros(2, dtype=aligned),
+        np.zeros(2, dtype=np.dtype({"names": ["x"], "formats": ["<f4"], "titles": ["the x"]})),
+        np.array(["ab", "c"], dtype="U3"),
+        np.array([b"ab"], dtype="S4"),
+        np.zeros(2, dtype="V5"),
+    ]
+    arrays[0]["a"] = [1.0, 2.0, 3.0]
+    for protocol in (2, 4, 5):
+        for x in arrays:
+            y = safe_loads(pickle.dumps(x, protocol=protocol))
+            assert y.dtype == x.dtype and y.dtype.itemsize == x.dtype.itemsize
+            np.testing.assert_array_equal(y, x)
+        assert safe_loads(pickle.dumps(np.zeros(1, aligned), protocol=protocol)).dtype.isalignedstruct
+
+
+def test_setting_the_state_of_other_objects_is_refused() -> None:
+    payload = pickle.dumps(_Built(_core.multiarray.scalar, (np.dtype("f8"), b"\0" * 8), {"x": 1}), protocol=4)
+    with pytest.raises(UnsafePickleError, match="refusing setting the state of a float64"):
+        safe_loads(payload)

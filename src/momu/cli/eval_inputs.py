@@ -24,14 +24,16 @@ import numpy as np
 import soundfile as sf
 
 from momu.data.common import AUDIO_SUFFIXES, DataFileError, absent_reason, load_npy
+from momu.data.motion_files import MAX_MOTION_BYTES
+from momu.data.npz_arrays import npz_keys, read_npz_array
 from momu.data.types import Clip
-from momu.export.npz import read_motion_npz
 from momu.io import read_json
 from momu.metrics._audio import read_audio
 
 __all__ = ["EvalInputError", "LazyClip", "collect_folder", "load_pairs", "MOTION_SUFFIXES", "AUDIO_SUFFIXES"]
 
 MOTION_SUFFIXES = (".npy", ".npz")
+_SMALL_BYTES = 1 << 16  # an npz's fps / skeleton
 # Joint layouts inferred from (J, D) when --skeleton is not given.
 _SKELETONS = {
     (24, 3): "smpl24",
@@ -71,17 +73,31 @@ def collect_folder(folder: Path) -> dict[str, dict[str, Path]]:
     return items
 
 
+def _npz_value(path: Path, key: str) -> Any:
+    value = np.asarray(read_npz_array(path, key, _SMALL_BYTES))
+    if value.size != 1:
+        raise EvalInputError(f"{path}: {key!r} must hold one value, got shape {value.shape}")
+    return value.reshape(()).item()
+
+
 def _load_motion(path: Path) -> tuple[np.ndarray, dict[str, Any] | None]:
-    """The joint array, and a .npz's own ``fps`` and ``skeleton`` (``None`` for a .npy)."""
-    if path.suffix.lower() == ".npz":
-        try:
-            record = read_motion_npz(path)
-        except (FileNotFoundError, ValueError) as exc:
-            raise EvalInputError(str(exc)) from None
-        return record.joints, {"fps": record.fps, "skeleton": record.skeleton}
+    """The joint array, and a .npz's own ``fps`` and ``skeleton`` (``None`` for a .npy).
+
+    Only the arrays needed are read, each within :data:`~momu.data.motion_files.MAX_MOTION_BYTES`
+    (:mod:`momu.data.npz_arrays`, :func:`~momu.data.files.load_npy`): a small file cannot inflate.
+    """
     try:
-        return load_npy(path), None
-    except DataFileError as exc:
+        if path.suffix.lower() == ".npz":
+            keys = npz_keys(path)
+            missing = [k for k in ("joints", "fps", "skeleton") if k not in keys]
+            if missing:
+                raise EvalInputError(f"{path}: missing array {missing[0]!r} (has {sorted(keys)})")
+            own = {"fps": float(_npz_value(path, "fps")), "skeleton": str(_npz_value(path, "skeleton"))}
+            return read_npz_array(path, "joints", MAX_MOTION_BYTES), own
+        return load_npy(path, MAX_MOTION_BYTES), None
+    except (DataFileError, TypeError, ValueError) as exc:
+        if isinstance(exc, EvalInputError):
+            raise
         raise EvalInputError(str(exc)) from None
 
 
@@ -94,6 +110,8 @@ def _checked_motion(path: Path, arr: np.ndarray) -> np.ndarray:
         raise EvalInputError(
             f"{path}: expected joint positions (T, J, D) with D = 2 or 3, got shape {arr.shape}"
         )
+    if np.iscomplexobj(arr) or not np.issubdtype(arr.dtype, np.number):
+        raise EvalInputError(f"{path}: motion must hold real numbers, got dtype {arr.dtype}")
     if not np.all(np.isfinite(arr)):
         raise EvalInputError(f"{path}: motion must hold finite numbers")
     return np.asarray(arr, dtype=np.float32)

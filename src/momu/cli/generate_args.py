@@ -66,7 +66,7 @@ def add_common(
         p.set_defaults(guidance=None)
     p.add_argument("--seconds", type=float, help=seconds_help)
     p.add_argument("--video-fps", type=float, default=25.0, help="frame rate of the mp4 (default 25)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no INFO lines")
 
 
 def add_motion(p: argparse.ArgumentParser, what: str) -> None:

@@ -16,9 +16,13 @@ without it the MoMu model shipped with momu is used. The folder's record says it
 HarmoGAN (``harmogan.json``: ``dance``); the other methods run through :mod:`momu.cli.generate_methods`,
 MoFusion's inpainting tasks through :mod:`momu.cli.generate_inpaint`. MoMu generates songs and dances
 of any length (up to 10 minutes) in overlapping windows stitched by inpainting (:mod:`momu.generation`).
-Everything that can be checked without the model — the input file, the output path, the model folder's
-record, what its method can generate, whether the motion's skeleton converts to the model's — is
-checked first; a problem prints one line ``momu generate: error: ...`` and exits with status 2.
+Everything that can be checked without the model — the input file, the output path (writable, names
+not too long, space for the outputs), the model folder's record, what its method can generate, whether
+the motion's skeleton converts to the model's — is checked first; a problem prints one line
+``momu generate: error: ...`` and exits with status 2. The outputs are written together at the end
+(:mod:`momu.cli.generate_write`); a failure there (a full disk) prints one line and exits with status 1,
+SIGTERM exits with 143, and neither leaves anything behind. The command ends with one line on stdout
+naming the files it wrote.
 """
 
 from __future__ import annotations
@@ -33,11 +37,29 @@ import numpy as np
 
 from momu.cli import generate_inpaint
 from momu.cli.generate_args import add_common, add_motion, formats, need_3d, provenance, record_for
-from momu.cli.generate_io import GenerateInputError, ModelRecord, read_song, resolve_outputs, song_warnings
+from momu.cli.generate_errors import GenerateOutputError
+from momu.cli.generate_io import (
+    GenerateInputError,
+    ModelRecord,
+    check_seconds,
+    read_song,
+    resolve_outputs,
+    song_warnings,
+)
 from momu.cli.generate_methods import generate_method_dance, generate_text, text_seconds
-from momu.cli.generate_motion import read_motion, to_skeleton
-from momu.cli.generate_write import DANCE_FORMATS, MUSIC_FORMATS, write_dance_outputs, write_music_outputs
+from momu.cli.generate_motion import motion_warnings, read_motion, to_skeleton
+from momu.cli.generate_progress import info_logging, progress
+from momu.cli.generate_write import (
+    DANCE_FORMATS,
+    MUSIC_FORMATS,
+    check_space,
+    write_dance_outputs,
+    write_joint_outputs,
+    write_music_outputs,
+)
+from momu.cli.interrupts import Terminated, exit_on_sigterm
 from momu.data.common import AUDIO_SUFFIXES
+from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, EXIT_USAGE
 
 log = logging.getLogger(__name__)
 
@@ -77,24 +99,33 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``momu generate WHAT``; bad inputs print one line and return 2."""
+    """Run ``momu generate WHAT``; bad inputs print one line and return 2, a failed write 1, SIGTERM 143."""
     try:
-        if args.guidance is not None and not np.isfinite(args.guidance):
-            raise GenerateInputError(f"--guidance must be a finite number, got {args.guidance}")
-        if not np.isfinite(args.video_fps) or args.video_fps <= 0:
-            raise GenerateInputError(f"--video-fps must be > 0, got {args.video_fps}")
-        return {
-            "dance": _dance,
-            "music": _music,
-            "joint": _joint,
-            "text": _text,
-            "forecast": generate_inpaint.forecast,
-            "inbetween": generate_inpaint.inbetween,
-            "edit": generate_inpaint.edit,
-        }[args.direction](args)
+        with exit_on_sigterm(), info_logging(args.quiet):
+            if args.guidance is not None and not np.isfinite(args.guidance):
+                raise GenerateInputError(f"--guidance must be a finite number, got {args.guidance}")
+            if not np.isfinite(args.video_fps) or args.video_fps <= 0:
+                raise GenerateInputError(f"--video-fps must be > 0, got {args.video_fps}")
+            written = {
+                "dance": _dance,
+                "music": _music,
+                "joint": _joint,
+                "text": _text,
+                "forecast": generate_inpaint.forecast,
+                "inbetween": generate_inpaint.inbetween,
+                "edit": generate_inpaint.edit,
+            }[args.direction](args)
     except (GenerateInputError, FileNotFoundError) as exc:
         sys.stderr.write(f"momu generate: error: {exc}\n")
-        return 2
+        return EXIT_USAGE
+    except GenerateOutputError as exc:
+        sys.stderr.write(f"momu generate: error: {exc}\n")
+        return EXIT_PROBLEMS
+    except Terminated as exc:
+        sys.stderr.write(f"momu generate: stopped by {exc.signal_name}; nothing was written\n")
+        return EXIT_PREEMPTED
+    sys.stdout.write(f"momu generate {args.direction}: wrote {', '.join(map(str, written))}\n")
+    return 0
 
 
 def _load(record: ModelRecord) -> Any:
@@ -106,13 +137,7 @@ def _load(record: ModelRecord) -> Any:
         raise GenerateInputError(f"--model {record.folder}: cannot load: {exc}") from None
 
 
-def _progress(total: int, desc: str, quiet: bool) -> Any:
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=desc, unit="window", disable=quiet or None, dynamic_ncols=True)
-
-
-def _dance(args: argparse.Namespace) -> int:
+def _dance(args: argparse.Namespace) -> list[Path]:
     from momu.generation.momu_long import music_to_motion_long, plan_for_seconds
 
     outputs = resolve_outputs(args.out, formats(args.format), DANCE_FORMATS, "dance")
@@ -120,37 +145,44 @@ def _dance(args: argparse.Namespace) -> int:
     song_warnings(song)
     record = record_for(args, "dance")
     need_3d(outputs, record)
+    check_space(outputs, song.duration)
+    log.info(
+        "dance for %s: %.1f s, %d Hz, %d channel(s)",
+        song.path,
+        song.duration,
+        song.sample_rate,
+        song.channels,
+    )
     if record.method != "momu":
         motion, fps = generate_method_dance(record, song, args.seed)
         skeleton = record.skeleton
     else:
         model = _load(record)
         plan = plan_for_seconds(model, song.duration, "motion")
-        with _progress(len(plan.starts), "dance", args.quiet) as bar:
+        with progress(len(plan.starts), "generating the dance", "window", args.quiet) as update:
             (motion,) = music_to_motion_long(
                 model,
                 [song.audio],
                 song.sample_rate,
                 [args.seed],
                 guidance_scale=args.guidance,
-                progress=bar.update,
+                progress=update,
             )
         fps, skeleton = model.rates.motion_fps, model.skeleton
-    written = write_dance_outputs(
+    return write_dance_outputs(
         outputs,
         motion,
         fps,
         skeleton,
-        song.audio,
+        song.track,
         song.sample_rate,
         provenance(args, record, args.music),
         video_fps=args.video_fps,
+        quiet=args.quiet,
     )
-    log.info("momu generate dance: wrote %s", ", ".join(map(str, written)))
-    return 0
 
 
-def _music(args: argparse.Namespace) -> int:
+def _music(args: argparse.Namespace) -> list[Path]:
     from momu.features.convert import stand_on_floor
     from momu.features.skeletons import get_skeleton
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds
@@ -158,63 +190,60 @@ def _music(args: argparse.Namespace) -> int:
     outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
     given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
     motion, trajectory = given.motion, given.trajectory
+    motion_warnings(given, args.motion)
     record = record_for(args, "music")
     # the whole path in space (root-centred files carry it apart), on the floor and centred like the
     # training data; 3D -> 2D conversion projects it with the synthetic data's camera
     model_input = to_skeleton(given, args.motion, record)
     if get_skeleton(record.skeleton).dims == 3:
         model_input = stand_on_floor(model_input, get_skeleton(record.skeleton).root).astype(np.float32)
-    if motion.shape[0] / given.fps < 2.0:
-        log.warning(
-            "%s: only %.2f s of motion; the music will be very short",
-            args.motion,
-            motion.shape[0] / given.fps,
-        )
+    check_space(outputs, motion.shape[0] / given.fps)
+    log.info("music for %s: %.1f s at %g fps", args.motion, motion.shape[0] / given.fps, given.fps)
     model = _load(record)
     plan = plan_for_seconds(model, motion.shape[0] / given.fps, "music")
-    with _progress(len(plan.starts), "music", args.quiet) as bar:
+    with progress(len(plan.starts), "generating the music", "window", args.quiet) as update:
         (audio,) = motion_to_music_long(
-            model, [model_input], given.fps, [args.seed], guidance_scale=args.guidance, progress=bar.update
+            model, [model_input], given.fps, [args.seed], guidance_scale=args.guidance, progress=update
         )
     shown = motion if trajectory is None else motion + trajectory[:, None, :]
-    written = write_music_outputs(
-        outputs, audio, model.rates.sample_rate, shown, given.fps, given.skeleton, video_fps=args.video_fps
+    return write_music_outputs(
+        outputs,
+        audio,
+        model.rates.sample_rate,
+        shown,
+        given.fps,
+        given.skeleton,
+        video_fps=args.video_fps,
+        quiet=args.quiet,
     )
-    log.info("momu generate music: wrote %s", ", ".join(map(str, written)))
-    return 0
 
 
-def _joint(args: argparse.Namespace) -> int:
+def _joint(args: argparse.Namespace) -> list[Path]:
     outputs = resolve_outputs(args.out, formats(args.format), JOINT_FORMATS, "joint")
-    seconds = 10.0 if args.seconds is None else float(args.seconds)
-    if not np.isfinite(seconds) or seconds <= 0:
-        raise GenerateInputError(f"--seconds must be > 0, got {args.seconds}")
+    seconds = 10.0 if args.seconds is None else float(check_seconds(args.seconds) or 0.0)
     record = record_for(args, "dance")
     need_3d(outputs, record)
+    check_space(outputs, seconds)
+    log.info("music and dance together: %.1f s", seconds)
     model = _load(record)
     try:
         ((audio, motion),) = model.joint([seconds], [args.seed])
     except ValueError as exc:  # e.g. longer than the denoiser's max_length
         raise GenerateInputError(f"--seconds {seconds}: {exc}") from None
-    sr, fps = model.rates.sample_rate, model.rates.motion_fps
-    dance = {k: v for k, v in outputs.items() if k in ("npz", "bvh", "mp4")}
-    written = write_dance_outputs(
-        dance,
-        motion,
-        fps,
-        model.skeleton,
+    return write_joint_outputs(
+        outputs,
         audio,
-        sr,
+        model.rates.sample_rate,
+        motion,
+        model.rates.motion_fps,
+        model.skeleton,
         provenance(args, record, None),
         video_fps=args.video_fps,
+        quiet=args.quiet,
     )
-    if "wav" in outputs:
-        written += write_music_outputs({"wav": outputs["wav"]}, audio, sr, motion, fps, model.skeleton)
-    log.info("momu generate joint: wrote %s", ", ".join(map(str, written)))
-    return 0
 
 
-def _text(args: argparse.Namespace) -> int:
+def _text(args: argparse.Namespace) -> list[Path]:
     caption = " ".join(str(args.caption).split())
     if not caption:
         raise GenerateInputError('--caption is empty; describe the motion, e.g. "a person walks forward"')
@@ -222,10 +251,18 @@ def _text(args: argparse.Namespace) -> int:
     record = record_for(args, "text")
     need_3d(outputs, record)
     seconds = text_seconds(record, args.seconds)
+    check_space(outputs, seconds)
     motion, fps = generate_text(record, caption, seconds, args.seed)
     prov = {**provenance(args, record, None), "caption": caption, "seconds": seconds}
-    written = write_dance_outputs(
-        outputs, motion, fps, record.skeleton, None, None, prov, video_fps=args.video_fps, title="momu text"
+    return write_dance_outputs(
+        outputs,
+        motion,
+        fps,
+        record.skeleton,
+        None,
+        None,
+        prov,
+        video_fps=args.video_fps,
+        title="momu text",
+        quiet=args.quiet,
     )
-    log.info("momu generate text: wrote %s", ", ".join(map(str, written)))
-    return 0

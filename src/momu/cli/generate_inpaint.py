@@ -48,7 +48,7 @@ from momu.cli.generate_io import (
 from momu.cli.generate_methods import check_length, describe, load_method_model, text_seconds
 from momu.cli.generate_motion import keep_given, model_rate_motion, read_motion
 from momu.cli.generate_specs import edit_region, parse_keyframes
-from momu.cli.generate_write import DANCE_FORMATS, write_dance_outputs
+from momu.cli.generate_write import DANCE_FORMATS, check_space, write_dance_outputs
 
 __all__ = ["add_parsers", "forecast", "inbetween", "edit", "SEED_SECONDS"]
 
@@ -197,7 +197,7 @@ def _prepare(
     return outputs, record, caption, model_rate_motion(given, args.motion, record), float(record.fps or 0)
 
 
-def forecast(args: argparse.Namespace) -> int:
+def forecast(args: argparse.Namespace) -> list[Path]:
     """``momu generate forecast``: keep the first ``--seed-seconds``, generate the rest (§4.4)."""
     from momu.methods.mofusion.model import MIN_FRAMES, frames_seconds
 
@@ -238,7 +238,7 @@ def forecast(args: argparse.Namespace) -> int:
     return _inpaint(args, record, outputs, motion[:seed], keep, generate, song, caption, extra)
 
 
-def inbetween(args: argparse.Namespace) -> int:
+def inbetween(args: argparse.Namespace) -> list[Path]:
     """``momu generate inbetween``: keep the ``--keyframes``, generate the frames between (§4.4)."""
     outputs, record, caption, motion, fps = _prepare(args, args.seconds)
     frames = motion.shape[0]
@@ -256,7 +256,7 @@ def inbetween(args: argparse.Namespace) -> int:
     return _inpaint(args, record, outputs, motion, keep, generate, song, caption, extra)
 
 
-def edit(args: argparse.Namespace) -> int:
+def edit(args: argparse.Namespace) -> list[Path]:
     """``momu generate edit``: regenerate ``--time`` × ``--joints`` for a new caption (abstract only;
     not evaluated by the paper), keep the rest."""
     from momu.features.skeletons import get_skeleton
@@ -294,7 +294,7 @@ def _inpaint(
     song: Song | None,
     caption: str | None,
     extra: dict[str, Any],
-) -> int:
+) -> list[Path]:
     """Load the model, run ``generate(model, given on the floor)``, move the result back to ``given``'s
     place, write the kept part of ``given`` into it exactly, and write the outputs."""
     from momu.features.convert import floor_offset
@@ -302,6 +302,7 @@ def _inpaint(
 
     root = get_skeleton(record.skeleton).root
     offset = floor_offset(given, root)
+    check_space(outputs, keep.shape[0] / float(record.fps or 20.0))
     model = load_method_model(record)
     log.info("momu generate %s: %s, %d frames", args.direction, describe(record), keep.shape[0])
     try:
@@ -320,17 +321,16 @@ def _inpaint(
         prov["caption"] = caption
     if song is not None:
         prov["music"] = {"path": str(song.path), "sha256": file_sha256(song.path)}
-    written = write_dance_outputs(
+    return write_dance_outputs(
         outputs,
         motion,
         float(model.fps),
         record.skeleton,
-        None if song is None else song.audio,
+        None if song is None else song.track,
         None if song is None else song.sample_rate,
         prov,
         video_fps=args.video_fps,
         title=f"momu {args.direction}",
         rigid=False,  # the kept frames stay the input's, bit for bit
+        quiet=args.quiet,
     )
-    log.info("momu generate %s: wrote %s", args.direction, ", ".join(map(str, written)))
-    return 0

@@ -1,5 +1,5 @@
-"""``momu generate``: everything checked before a model is loaded — the song, the motion, the outputs,
-the model folder's record — and the default (shipped) model.
+"""``momu generate``: everything checked before a model is loaded — the song
+(:mod:`momu.cli.generate_song`), the outputs, the model folder's record — and the default (shipped) model.
 
 Each check raises :class:`GenerateInputError` with one line naming the file or option and what is wrong
 (the command prints it and exits with status 2); soft problems (a very short or silent song, an unusual
@@ -9,16 +9,22 @@ sample rate) are logged as warnings and generation goes on.
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
-import subprocess
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from momu.cli.generate_errors import GenerateInputError
+from momu.cli.generate_song import (
+    MAX_SONG_SECONDS,
+    MIN_SECONDS,
+    Song,
+    check_seconds,
+    read_song,
+    song_warnings,
+)
+from momu.cli.output_paths import OutputPathError, check_writable_output
 from momu.io import read_json
 
 __all__ = [
@@ -33,141 +39,38 @@ __all__ = [
     "default_model_dir",
     "file_sha256",
     "MAX_SONG_SECONDS",
+    "MIN_SECONDS",
+    "check_seconds",
 ]
 
 log = logging.getLogger(__name__)
-
-MAX_SONG_SECONDS = 600.0
-"""Longest input (10 minutes); ``--seconds`` cuts a longer one."""
-SHORT_SONG_SECONDS = 2.0
-"""Songs shorter than this get a warning (the model's beats need a few bars)."""
-SILENCE_RMS = 1e-4
-"""A song whose RMS is below this (full scale 1) is called silent."""
-USUAL_RATES = (8000, 96000)
-"""Sample rates outside this range (Hz) get a warning: far from the 16 kHz music the models train on."""
-
-
-class GenerateInputError(ValueError):
-    """A bad input, output path or model folder of ``momu generate`` (one line, exit status 2)."""
-
-
-@dataclass(frozen=True)
-class Song:
-    """A decoded song: mono waveform in [-1, 1] at its own rate.
-
-    Attributes:
-        audio: ``(S,)`` float32 mono mixdown.
-        sample_rate: the file's rate (Hz).
-        channels: channels in the file.
-        duration: seconds of ``audio`` (after any ``--seconds`` cut).
-        file_duration: seconds in the file.
-        path: the file.
-    """
-
-    audio: np.ndarray
-    sample_rate: int
-    channels: int
-    duration: float
-    file_duration: float
-    path: Path
-
-
-def _decode_soundfile(path: Path) -> tuple[np.ndarray, int]:
-    import soundfile as sf
-
-    audio, sr = sf.read(str(path), dtype="float32", always_2d=True)
-    return audio, int(sr)
-
-
-def _decode_ffmpeg(path: Path) -> tuple[np.ndarray, int]:
-    """Decode any format ffmpeg knows (m4a, aac ...) through imageio-ffmpeg's binary, to float WAV."""
-    import imageio_ffmpeg
-    import soundfile as sf
-
-    cmd = [
-        imageio_ffmpeg.get_ffmpeg_exe(),
-        "-v",
-        "error",
-        "-i",
-        str(path),
-        "-f",
-        "wav",
-        "-c:a",
-        "pcm_f32le",
-        "-",
-    ]
-    proc = subprocess.run(cmd, capture_output=True, check=False)
-    if proc.returncode != 0 or not proc.stdout:
-        raise RuntimeError(proc.stderr.decode(errors="replace").strip().splitlines()[-1:] or "no output")
-    audio, sr = sf.read(io.BytesIO(proc.stdout), dtype="float32", always_2d=True)
-    return audio, int(sr)
-
-
-def read_song(path: Path, seconds: float | None = None) -> Song:
-    """Decode a song (wav, mp3, flac, ogg, opus with libsndfile; other formats through ffmpeg).
-
-    Raises:
-        GenerateInputError: missing or unreadable file, no samples, NaN samples, longer than
-            :data:`MAX_SONG_SECONDS` (without ``seconds``), or a bad ``seconds``.
-    """
-    if seconds is not None and (not np.isfinite(seconds) or seconds <= 0):
-        raise GenerateInputError(f"--seconds must be > 0, got {seconds}")
-    if not path.exists():
-        raise GenerateInputError(f"--music {path}: file not found")
-    if not path.is_file():
-        raise GenerateInputError(f"--music {path}: not a file")
-    try:
-        audio, sr = _decode_soundfile(path)
-    except Exception as first:  # libsndfile raises LibsndfileError / RuntimeError / TypeError
-        try:
-            audio, sr = _decode_ffmpeg(path)
-        except Exception:
-            raise GenerateInputError(f"--music {path}: cannot read audio ({first})") from None
-    if audio.size == 0 or sr <= 0:
-        raise GenerateInputError(f"--music {path}: the file holds no audio samples")
-    if not np.all(np.isfinite(audio)):
-        raise GenerateInputError(f"--music {path}: audio contains NaN or infinite samples")
-    file_duration = audio.shape[0] / sr
-    if seconds is None and file_duration > MAX_SONG_SECONDS:
-        raise GenerateInputError(
-            f"--music {path}: {file_duration:.0f} s is longer than {MAX_SONG_SECONDS:.0f} s; "
-            "pass --seconds to use its beginning"
-        )
-    mono = audio.mean(axis=1).astype(np.float32)
-    if seconds is not None:
-        mono = mono[: int(round(min(seconds, MAX_SONG_SECONDS) * sr))]
-    return Song(mono, sr, int(audio.shape[1]), mono.shape[0] / sr, file_duration, path)
-
-
-def song_warnings(song: Song) -> list[str]:
-    """Warnings (also logged) for a song that is very short, silent, or at an unusual sample rate."""
-    out = []
-    if song.duration < SHORT_SONG_SECONDS:
-        out.append(
-            f"{song.path}: only {song.duration:.2f} s long; dances under {SHORT_SONG_SECONDS:g} s show little"
-        )
-    rms = float(np.sqrt(np.mean(np.square(song.audio.astype(np.float64))))) if song.audio.size else 0.0
-    if rms < SILENCE_RMS:
-        out.append(f"{song.path}: the audio is silent (RMS {rms:.1e}); the dance will not follow any beat")
-    if not USUAL_RATES[0] <= song.sample_rate <= USUAL_RATES[1]:
-        out.append(
-            f"{song.path}: sample rate {song.sample_rate} Hz is far outside the models' 16 kHz training "
-            f"music (usual range {USUAL_RATES[0]}-{USUAL_RATES[1]} Hz); it is resampled"
-        )
-    for line in out:
-        log.warning("%s", line)
-    return out
 
 
 def resolve_outputs(
     out: Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str
 ) -> dict[str, Path]:
-    """Output file per format.
+    """Output file per format, each checked writable now (before any work).
 
     ``out`` with a suffix in ``allowed`` is that one file (``--format`` must agree); any other suffix is
-    an error; otherwise ``out`` is a folder (created later) holding ``<stem>.<format>`` for each of
-    ``formats`` (default: all ``allowed``). A folder path that is an existing file is an error.
+    an error; otherwise ``out`` is a folder (created when the outputs are written) holding
+    ``<stem>.<format>`` for each of ``formats`` (default: all ``allowed``). A folder path that is an
+    existing file is an error; so is a folder that cannot be written or a name too long for the file
+    system (:func:`momu.cli.output_paths.check_writable_output`).
     """
+    try:
+        outputs = _output_files(out, formats, allowed, stem)
+        for path in outputs.values():
+            check_writable_output(path, "--out", is_file=True)
+    except OutputPathError as exc:
+        raise GenerateInputError(str(exc)) from None
+    except OSError as exc:  # ENAMETOOLONG, ELOOP while looking at the path
+        raise GenerateInputError(f"--out {out}: {exc.strerror or exc}") from None
+    return outputs
+
+
+def _output_files(
+    out: Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str
+) -> dict[str, Path]:
     suffix = out.suffix.lower().lstrip(".")
     if formats is not None:
         bad = [f for f in formats if f not in allowed]

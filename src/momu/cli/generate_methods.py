@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from momu.cli.generate_io import GenerateInputError, ModelRecord, Song
+from momu.cli.generate_io import GenerateInputError, ModelRecord, Song, check_seconds
 
 __all__ = [
     "INPAINTING",
@@ -138,8 +138,7 @@ def text_seconds(record: ModelRecord, seconds: float | None) -> float:
     if seconds is None:
         window = record.window_seconds or TEXT_SECONDS_DEFAULT
         seconds = min(TEXT_SECONDS_DEFAULT, window)
-    if not np.isfinite(seconds) or seconds <= 0:
-        raise GenerateInputError(f"--seconds must be > 0, got {seconds}")
+    seconds = check_seconds(seconds) or 0.0
     if record.window_seconds is not None and seconds > record.window_seconds:
         log.warning(
             "--seconds %.1f is longer than the clips the model trained on (at most %.1f s); "

@@ -14,31 +14,72 @@ Errors are :class:`~momu.cli.generate_io.GenerateInputError` lines naming ``--mo
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
 
 from momu.cli.generate_io import GenerateInputError, ModelRecord
+from momu.cli.generate_song import MAX_SONG_SECONDS, MIN_SECONDS, check_seconds
 from momu.data.motion_files import MotionInput
 
-__all__ = ["read_motion", "to_skeleton", "model_rate_motion", "keep_given"]
+__all__ = ["read_motion", "motion_warnings", "to_skeleton", "model_rate_motion", "keep_given"]
+
+log = logging.getLogger(__name__)
+
+SHORT_MOTION_SECONDS = 2.0
+"""Motions shorter than this get a warning (the music will be very short)."""
+STATIC_MOTION_FRACTION = 0.01
+"""A motion whose joints all stay within this fraction of the figure's size is called static."""
 
 
 def read_motion(path: Path, skeleton: str | None, fps: float | None, seconds: float | None) -> MotionInput:
-    """The motion file, cut to its first ``seconds`` (checked: > 0)."""
+    """The motion file, cut to its first ``seconds`` (checked like a song's ``--seconds``).
+
+    A motion longer than :data:`~momu.cli.generate_song.MAX_SONG_SECONDS` needs ``seconds``; one
+    shorter than :data:`~momu.cli.generate_song.MIN_SECONDS` is refused.
+    """
     from momu.data.motion_files import read_motion_file
 
-    if seconds is not None and (not np.isfinite(seconds) or seconds <= 0):
-        raise GenerateInputError(f"--seconds must be > 0, got {seconds}")
+    seconds = check_seconds(seconds)
     try:
-        given = read_motion_file(path, skeleton=skeleton, fps=fps)
+        given = read_motion_file(
+            path, skeleton=skeleton, fps=fps, max_seconds=None if seconds is not None else MAX_SONG_SECONDS
+        )
     except (ValueError, FileNotFoundError) as exc:
         raise GenerateInputError(f"--motion {exc}") from None
+    if given.motion.shape[0] / given.fps < MIN_SECONDS:
+        raise GenerateInputError(
+            f"--motion {path}: too short: only {given.motion.shape[0] / given.fps:.2f} s of motion "
+            f"({given.motion.shape[0]} frames at {given.fps:g} fps); momu needs at least {MIN_SECONDS:g} s"
+        )
     if seconds is None:
         return given
     keep = max(2, int(round(seconds * given.fps)))
     trajectory = None if given.trajectory is None else given.trajectory[:keep]
     return MotionInput(given.motion[:keep], given.fps, given.skeleton, trajectory, given.source)
+
+
+def motion_warnings(given: MotionInput, path: Path) -> list[str]:
+    """Warnings (also logged) for a motion that is very short, or static (its joints barely move)."""
+    out = []
+    seconds = given.motion.shape[0] / given.fps
+    if seconds < SHORT_MOTION_SECONDS:
+        out.append(f"{path}: only {seconds:.2f} s of motion; the music will be very short")
+    x = given.motion.astype(np.float64)
+    if given.trajectory is not None:
+        x = x + given.trajectory[:, None, :].astype(np.float64)
+    size = float(np.max(np.ptp(x[0], axis=0)))  # the figure's extent in its first frame
+    moved = float(np.max(np.ptp(x, axis=0)))  # the farthest any joint goes along any axis
+    if moved <= STATIC_MOTION_FRACTION * max(size, 1e-9):
+        out.append(
+            f"{path}: the motion is static (no joint moves more than {moved:.2g}, "
+            f"{100 * moved / max(size, 1e-9):.2g} % of the figure's size); "
+            "the music will not follow any movement"
+        )
+    for line in out:
+        log.warning("%s", line)
+    return out
 
 
 def to_skeleton(given: MotionInput, path: Path, record: ModelRecord) -> np.ndarray:

@@ -28,6 +28,8 @@ __all__ = [
     "read_json_file",
     "absent_reason",
     "npy_header",
+    "read_npy_header",
+    "npy_nbytes",
     "load_npy",
     "read_pickle",
     "read_pickle_dict",
@@ -110,6 +112,36 @@ def _missing(path: Path, what: str = "file") -> MissingDataFileError:
     return MissingDataFileError(path, absent_reason(path, what))
 
 
+def read_npy_header(fh: Any, path: str | Path) -> tuple[tuple[int, ...], bool, np.dtype[Any]]:
+    """``(shape, fortran_order, dtype)`` of the ``.npy`` stream ``fh`` (left at its data); nothing is
+    allocated. Raises :class:`DataFileError` naming ``path``: no NUMPY magic, a corrupt header, an
+    object dtype (pickled Python objects)."""
+    magic = fh.read(6)
+    if magic != b"\x93NUMPY":
+        raise DataFileError(path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)")
+    try:
+        version = (fh.read(1) or b"\x00")[0], (fh.read(1) or b"\x00")[0]
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+        elif version in ((2, 0), (3, 0)):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+        else:
+            raise ValueError(f"version {version}")
+    except (ValueError, EOFError, OSError, SyntaxError) as exc:
+        raise DataFileError(path, f"not a valid .npy file (corrupt header: {exc})") from None
+    if dtype.hasobject:
+        raise DataFileError(path, "holds pickled Python objects; refusing to load (expected a numeric array)")
+    return tuple(int(n) for n in shape), bool(fortran), dtype
+
+
+def npy_nbytes(shape: tuple[int, ...], dtype: np.dtype[Any]) -> int:
+    """Bytes of data a ``.npy`` header declares (Python integers: no overflow)."""
+    count = 1
+    for n in shape:
+        count *= int(n)
+    return count * int(dtype.itemsize)
+
+
 def npy_header(path: str | Path) -> tuple[tuple[int, ...], np.dtype[Any], int]:
     """``(shape, dtype, data offset)`` from a ``.npy`` header, checked against the file's size.
 
@@ -122,26 +154,9 @@ def npy_header(path: str | Path) -> tuple[tuple[int, ...], np.dtype[Any], int]:
     path = Path(path)
     size = path.stat().st_size
     with open(path, "rb") as fh:
-        magic = fh.read(6)
-        if magic != b"\x93NUMPY":
-            raise DataFileError(
-                path, "not a .npy file (no NUMPY header)" if magic else "empty file (0 bytes)"
-            )
-        fh.seek(0)
-        try:
-            version = np.lib.format.read_magic(fh)
-            if version == (1, 0):
-                shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
-            elif version in ((2, 0), (3, 0)):
-                shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
-            else:
-                raise ValueError(f"version {version}")
-        except (ValueError, EOFError, OSError, SyntaxError) as exc:
-            raise DataFileError(path, f"not a valid .npy file (corrupt header: {exc})") from None
+        shape, _, dtype = read_npy_header(fh, path)
         offset = fh.tell()
-    if dtype.hasobject:
-        raise DataFileError(path, "holds pickled Python objects; refusing to load (expected a numeric array)")
-    expected = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize if shape else dtype.itemsize
+    expected = npy_nbytes(shape, dtype)
     if expected != size - offset:
         raise DataFileError(
             path,
@@ -151,16 +166,23 @@ def npy_header(path: str | Path) -> tuple[tuple[int, ...], np.dtype[Any], int]:
     return tuple(int(n) for n in shape), dtype, offset
 
 
-def load_npy(path: str | Path) -> np.ndarray:
+def load_npy(path: str | Path, max_bytes: int | None = None) -> np.ndarray:
     """Load a numeric ``.npy`` array without admitting pickled objects; errors name the file.
 
     The header is checked first (:func:`npy_header`), so a corrupt or truncated file is "not a
-    valid .npy file" and nothing larger than the file is ever allocated.
+    valid .npy file" and nothing larger than the file is ever allocated; ``max_bytes`` refuses a
+    larger array too.
     """
     path = Path(path)
     if not path.is_file():
         raise _missing(path)
-    _, dtype, _ = npy_header(path)
+    shape, dtype, _ = npy_header(path)
+    if max_bytes is not None and npy_nbytes(shape, dtype) > max_bytes:
+        raise DataFileError(
+            path,
+            f"holds a {shape} {dtype} array of {npy_nbytes(shape, dtype)} bytes, more than the "
+            f"{max_bytes}-byte limit",
+        )
     if not np.issubdtype(dtype, np.number):
         raise DataFileError(path, f"expected a numeric array, got dtype {dtype}")
     try:

@@ -25,15 +25,22 @@ class's name, its constructor arguments and the state the pickle gives it. The f
 never imported and none of its code runs; the caller reads the (plain, checked) state itself.
 
 Memory bombs are refused before anything is allocated. A few bytes of pickle can otherwise ask
-for gigabytes: ``bytes(N)`` / ``bytearray(N)`` (N zero bytes from nothing), the ``numpy.ndarray(shape)``
+for gigabytes: ``bytes(N)`` / ``bytearray(N)`` (N zero bytes from nothing, also as ``bytes(source=N)``),
+numpy's ``scalar(dtype)`` (a zero-filled item of any declared size), the ``numpy.ndarray(shape)``
 constructor (uninitialised memory that would be read as keypoints), an array whose declared shape
 does not match the data the file holds, or object-dtype arrays (whose elements are more pickled
 objects). The unpickler (the pure-Python one, so it can see each opcode) refuses
 
-* calling ``bytes``/``bytearray`` with a size, and the ``ndarray`` constructor at all;
+* ``bytes``/``bytearray`` given anything but the bytes, text or list of values they copy (whatever
+  the call form: positional, keyword, ``NEWOBJ``), and the ``ndarray`` constructor at all;
+* a numpy scalar without exactly its item's bytes in the file;
 * object dtypes anywhere (a dtype, an array, a scalar);
+* a pickled dtype state numpy's own pickles never hold (:mod:`momu.data.safe_pickle_dtypes`: dtypes
+  are rebuilt through numpy's public constructor, never ``__setstate__``, so a crafted item size,
+  field offset or flag cannot make arrays read outside their memory);
 * an array whose data is not exactly ``prod(shape) × itemsize`` bytes held in the file;
-* a file, or a total of declared array data, larger than ``max_bytes``
+* a BUILD (``__setstate__``) on anything but an array, a dtype, an admitted record or an ``OrderedDict``;
+* a file, or a total of declared array (and scalar) data, larger than ``max_bytes``
   (:data:`DEFAULT_MAX_BYTES`; ``aistpp``'s ``max_pickle_mb`` option sets it).
 
 momu never writes pickles; this module only reads them.
@@ -50,6 +57,8 @@ from pathlib import Path
 from typing import IO, Any, NoReturn
 
 import numpy as np
+
+from momu.data.safe_pickle_dtypes import DtypeStateError, rebuild_dtype
 
 __all__ = [
     "UnsafePickleError",
@@ -120,6 +129,28 @@ class _Refused(UnsafePickleError):
     pass
 
 
+_COPIED_SOURCES = (bytes, bytearray, memoryview, str, list, tuple, np.ndarray)
+"""What ``bytes(...)`` / ``bytearray(...)`` may be given in a pickle: values it copies (proportional
+to the file), never a size."""
+
+
+def _size_free(kind: type, refuse: Callable[[str], NoReturn]) -> type:
+    """A stand-in for ``bytes`` / ``bytearray`` whose every call form refuses a size argument."""
+
+    class _Checked:
+        def __new__(cls, *args: Any, **kwargs: Any) -> Any:
+            source = args[0] if args else kwargs.get("source")
+            if source is not None and not isinstance(source, _COPIED_SOURCES):
+                refuse(
+                    f"{kind.__name__}({type(source).__name__} {source!r:.40}): only bytes, text or a list of "
+                    "values are admitted, not a size that builds zero bytes from nothing"
+                )
+            return kind(*args, **kwargs)
+
+    _Checked.__name__ = _Checked.__qualname__ = kind.__name__
+    return _Checked
+
+
 class PickledObject:
     """An instance of an admitted record class (see the module docstring), never constructed for real.
 
@@ -182,6 +213,7 @@ class RestrictedUnpickler(pickle._Unpickler):
 
     dispatch: dict[int, Any] = dict(pickle._Unpickler.dispatch)  # type: ignore[attr-defined,misc]
     stack: list[Any]  # the pure-Python unpickler's stack (untyped in the stubs)
+    memo: dict[int, Any]  # and its memo
 
     def __init__(
         self,
@@ -199,9 +231,14 @@ class RestrictedUnpickler(pickle._Unpickler):
         self._allowed = _build_allowed()
         core = _numpy_core()
         self._allowed[("numpy", "ndarray")] = np.ndarray
+        for module in ("builtins", "__builtin__"):
+            self._allowed[(module, "bytes")] = _size_free(bytes, self._refuse)
+            self._allowed[(module, "bytearray")] = _size_free(bytearray, self._refuse)
         for package in ("numpy.core", "numpy._core"):
             self._allowed[(f"{package}.multiarray", "_reconstruct")] = self._reconstruct
             self._allowed[(f"{package}.numeric", "_frombuffer")] = self._frombuffer
+            self._allowed[(f"{package}.multiarray", "scalar")] = self._scalar
+        self._np_scalar = core.multiarray.scalar
         self._np_reconstruct = core.multiarray._reconstruct
         self._np_frombuffer = core.numeric._frombuffer
         self._records = {(m, n): _record_class(m, n) for m, n in records}
@@ -238,11 +275,9 @@ class RestrictedUnpickler(pickle._Unpickler):
             self._refuse("an object-dtype array (its elements would be more pickled objects)")
         return dtype
 
-    def _check_call(self, func: Any, args: tuple[Any, ...]) -> None:
+    def _check_call(self, func: Any) -> None:
         if func is np.ndarray:
             self._refuse("the numpy.ndarray(shape) constructor: it returns uninitialised memory")
-        if func in (bytes, bytearray) and args and isinstance(args[0], (int, np.integer)):
-            self._refuse(f"{func.__name__}({args[0]!r}): a size that builds zero bytes from nothing")
 
     def _checked(self, value: Any) -> Any:
         if isinstance(value, np.dtype) and value.hasobject:
@@ -256,6 +291,17 @@ class RestrictedUnpickler(pickle._Unpickler):
         if _nbytes(shape, np.dtype(np.uint8), self._source) != 0:
             self._refuse(f"_reconstruct of shape {shape!r}: numpy pickles start from an empty array")
         return self._np_reconstruct(subtype, shape, dtype)
+
+    def _scalar(self, dtype: Any, obj: Any = None) -> Any:
+        """numpy's scalar reconstructor, only with exactly its item's bytes (no zero-filled items)."""
+        dtype = self._dtype(dtype)
+        if isinstance(obj, str):  # Python 2 pickles: the raw bytes as a latin-1 str
+            obj = obj.encode("latin-1")
+        if not isinstance(obj, bytes) or len(obj) != dtype.itemsize:
+            held = len(obj) if isinstance(obj, bytes) else type(obj).__name__
+            self._refuse(f"a numpy scalar of {dtype.itemsize} bytes given {held}")
+        self._spend(dtype.itemsize)
+        return self._np_scalar(dtype, obj)
 
     def _frombuffer(self, buf: Any, dtype: Any, shape: Any, order: Any) -> Any:
         dtype = self._dtype(dtype)
@@ -281,34 +327,50 @@ class RestrictedUnpickler(pickle._Unpickler):
 
     # ------------------------------------------------------------------ opcodes that construct
     def load_reduce(self) -> None:
-        args = self.stack[-1]
-        self._check_call(self.stack[-2], args if isinstance(args, tuple) else ())
+        self._check_call(self.stack[-2])
         pickle._Unpickler.load_reduce(self)  # type: ignore[attr-defined]
         self._checked(self.stack[-1])
 
     def load_newobj(self) -> None:
-        args = self.stack[-1]
-        self._check_call(self.stack[-2], args if isinstance(args, tuple) else ())
+        self._check_call(self.stack[-2])
         pickle._Unpickler.load_newobj(self)  # type: ignore[attr-defined]
         self._checked(self.stack[-1])
 
     def load_newobj_ex(self) -> None:
-        args = self.stack[-2]
-        self._check_call(self.stack[-3], args if isinstance(args, tuple) else ())
+        self._check_call(self.stack[-3])
         pickle._Unpickler.load_newobj_ex(self)  # type: ignore[attr-defined]
         self._checked(self.stack[-1])
 
     def _instantiate(self, klass: Any, args: list[Any]) -> None:
-        self._check_call(klass, tuple(args))
+        self._check_call(klass)
         pickle._Unpickler._instantiate(self, klass, args)  # type: ignore[attr-defined]
         self._checked(self.stack[-1])
 
     def load_build(self) -> None:
         state, inst = self.stack[-1], self.stack[-2]
+        if isinstance(inst, np.dtype):
+            self._build_dtype(inst, state)
+            return
         if isinstance(inst, np.ndarray):
             self._check_array_state(state)
+        elif not isinstance(inst, (PickledObject, collections.OrderedDict)):
+            self._refuse(f"setting the state of a {type(inst).__name__} (only arrays and dtypes have one)")
         pickle._Unpickler.load_build(self)  # type: ignore[attr-defined]
         self._checked(inst)
+
+    def _build_dtype(self, inst: np.dtype[Any], state: Any) -> None:
+        """BUILD of a dtype: a new dtype from the checked state replaces ``inst`` on the stack and in
+        the memo (:func:`~momu.data.safe_pickle_dtypes.rebuild_dtype`); ``inst`` itself — possibly
+        numpy's shared built-in dtype — is never changed."""
+        try:
+            new = rebuild_dtype(inst, state)
+        except DtypeStateError as exc:
+            self._refuse(str(exc))
+        self.stack.pop()
+        self.stack[-1] = new
+        for key, value in self.memo.items():
+            if value is inst:
+                self.memo[key] = new
 
     dispatch[pickle.REDUCE[0]] = load_reduce
     dispatch[pickle.NEWOBJ[0]] = load_newobj

@@ -15,14 +15,13 @@ midline bones in black, the usual convention of pose visualisers.
 :func:`skeleton_animation` draws the static part of the figure once and blits only the moving
 artists for each frame, then writes an animated GIF with Pillow (which ships with matplotlib; no
 ffmpeg). A GIF has no sound track: with ``audio`` the animation gets a waveform panel with a moving
-play head. An ``.mp4`` (H.264 + AAC, the audio as its sound track) needs an ffmpeg binary, taken from
-the ``imageio-ffmpeg`` package.
+play head. An ``.mp4`` (H.264 + AAC, the audio as its sound track with its channels) needs an ffmpeg
+binary, taken from the ``imageio-ffmpeg`` package, run within time limits by :mod:`momu.render.ffmpeg`.
 """
 
 from __future__ import annotations
 
 import logging
-import subprocess
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +31,7 @@ import numpy as np
 from momu.features.kinematics import check_motion, project_plane
 from momu.features.skeletons import Skeleton, get_skeleton
 from momu.io import atomic_path
+from momu.render.ffmpeg import ffmpeg_exe, write_mp4
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from matplotlib.artist import Artist
@@ -217,17 +217,6 @@ def output_frames(num_frames: int, fps: float, out_fps: float) -> list[int]:
     return [int(i) for i in np.minimum(np.round(np.arange(count) * step), num_frames - 1)]
 
 
-def _ffmpeg_exe() -> str:
-    try:
-        import imageio_ffmpeg
-    except ImportError:
-        raise RuntimeError(
-            "writing .mp4 needs an ffmpeg binary: `pip install imageio-ffmpeg` "
-            "(or write a .gif, which needs only matplotlib and Pillow)"
-        ) from None
-    return str(imageio_ffmpeg.get_ffmpeg_exe())
-
-
 def _blit_frames(
     fig: Figure, update: Callable[[int], list[Artist]], animated: list[Artist], frames: list[int]
 ) -> Iterator[np.ndarray]:
@@ -249,6 +238,13 @@ def _blit_frames(
         yield np.asarray(canvas.buffer_rgba())
 
 
+def _reported(images: Iterator[np.ndarray], progress: Callable[[int], Any]) -> Iterator[np.ndarray]:
+    """``images``, calling ``progress(1)`` once each has been consumed (written)."""
+    for image in images:
+        yield image
+        progress(1)
+
+
 def _write_gif(path: Path, images: Iterator[np.ndarray], out_fps: float) -> int:
     """Write RGBA frames (alpha ignored) as a looping GIF at ``out_fps``; returns the number of frames."""
     from PIL import Image
@@ -268,67 +264,16 @@ def _write_gif(path: Path, images: Iterator[np.ndarray], out_fps: float) -> int:
     return len(pal)
 
 
-def _write_mp4(
-    ffmpeg: str,
-    path: Path,
-    images: Iterator[np.ndarray],
-    out_fps: float,
-    audio: np.ndarray | None,
-    sample_rate: int | None,
-    num_frames: int,
-) -> int:
-    """Pipe RGBA frames to ffmpeg (H.264 ``veryfast``, yuv420p, even frame size), with ``audio`` as an
-    AAC track.
+def _audio_channels(audio: Any, sample_rate: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(mono (S,), channels (S, C))`` float32 of a mono ``(S,)`` or multi-channel ``(S, C)`` waveform."""
+    from momu.features.audio import check_waveform
 
-    The sound is padded with silence or cut to the video's ``num_frames / out_fps`` seconds.
-    Returns the number of frames.
-    """
-    import tempfile
-
-    first = next(images, None)
-    if first is None:
-        raise ValueError("motion: no frames to animate")
-    h, w = first.shape[:2]
-    cmd = [ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgba"]
-    cmd += ["-s", f"{w}x{h}", "-r", f"{out_fps:g}", "-i", "pipe:0"]
-    with tempfile.TemporaryDirectory(prefix="momu-render-") as scratch:
-        if audio is not None and sample_rate:
-            import soundfile as sf
-
-            wav = Path(scratch) / "audio.wav"
-            samples = int(round(num_frames / out_fps * sample_rate))
-            track = np.zeros(samples, dtype=np.float32)
-            track[: min(samples, audio.size)] = audio[:samples]
-            sf.write(str(wav), track, int(sample_rate), subtype="FLOAT")
-            cmd += ["-i", str(wav)]
-        cmd += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-preset", "veryfast"]
-        cmd += ["-pix_fmt", "yuv420p"]
-        if audio is not None:
-            cmd += ["-c:a", "aac", "-shortest"]
-        cmd += ["-f", "mp4", str(path)]
-        log = Path(scratch) / "ffmpeg.log"
-        count = 0
-        with log.open("wb") as err:
-            proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=err)
-            assert proc.stdin is not None
-            try:
-                for image in _chain(first, images):
-                    proc.stdin.write(np.ascontiguousarray(image).data)
-                    count += 1
-            except BrokenPipeError:
-                pass  # ffmpeg exited early; its log says why
-            finally:
-                proc.stdin.close()
-                code = proc.wait()
-        if code != 0:
-            reason = log.read_text(errors="replace").strip()[-500:]
-            raise RuntimeError(f"ffmpeg failed writing {path}: {reason}")
-    return count
-
-
-def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
-    yield first
-    yield from rest
+    x = np.asarray(audio.detach().cpu().numpy() if hasattr(audio, "detach") else audio)
+    if x.ndim == 2 and 1 < x.shape[1] <= 8 and x.shape[0] > x.shape[1]:
+        mono = check_waveform(x.mean(axis=1, dtype=np.float32), sample_rate)  # NaN in a channel shows here
+        return mono, np.asarray(x, dtype=np.float32)
+    mono = check_waveform(x, sample_rate)
+    return mono, mono[:, None]
 
 
 def skeleton_animation(
@@ -346,6 +291,7 @@ def skeleton_animation(
     title: str | None = None,
     figsize: tuple[float, float] = (4.0, 4.0),
     dpi: int = 80,
+    progress: Callable[[int], Any] | None = None,
 ) -> Path:
     """Write an animation of ``motion`` to ``path`` (``.gif``; ``.mp4`` with ``imageio-ffmpeg``).
 
@@ -354,8 +300,10 @@ def skeleton_animation(
         motion: ``(T, J, 2|3)`` joint positions at ``fps`` (projection: :func:`screen_coordinates`).
         fps: motion frame rate (frames per second, > 0); the animation plays in real time.
         skeleton: the motion's skeleton name (or :class:`Skeleton`).
-        audio: optional mono waveform ``(S,)`` at ``sample_rate`` Hz. A GIF shows it as a waveform panel
-            with a play head (GIFs carry no sound); an MP4 also gets it as its sound track.
+        audio: optional waveform at ``sample_rate`` Hz: mono ``(S,)`` or ``(S, C)`` channels (``C`` <= 8,
+            fewer than ``S``). A GIF shows it as a waveform panel with a play head (GIFs carry no
+            sound); an MP4 also gets it as its AAC sound track, with its channels (stereo stays stereo;
+            more than two are mixed down to stereo) and samples beyond full scale clipped to ±1.
         sample_rate: audio sample rate in Hz (required with ``audio``).
         plane, y_down: projection options of :func:`screen_coordinates`.
         trajectory: optional ``(T, 3)`` global root trajectory (``Clip.trajectory`` of root-centred
@@ -366,6 +314,7 @@ def skeleton_animation(
             slow delays under 20 ms down to 100 ms: use 50, 25, 20, 10 ... for exact timing) and ``fps``
             for an MP4.
         title, figsize, dpi: figure title, size in inches and resolution.
+        progress: called with 1 after each frame is written (a progress bar's ``update``).
 
     Returns:
         ``Path(path)``.
@@ -373,6 +322,8 @@ def skeleton_animation(
     Raises:
         ValueError: unsupported suffix, bad motion/audio/fps/out_fps, unknown skeleton, joint-count mismatch.
         RuntimeError: ``.mp4`` without ``imageio-ffmpeg`` installed (the message says what to install).
+        momu.render.ffmpeg.FfmpegError: ffmpeg failed or ran past its time limits
+            (:mod:`momu.render.ffmpeg`; nothing is left at ``path``).
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -386,7 +337,8 @@ def skeleton_animation(
         out_fps = min(float(fps), 25.0) if suffix == ".gif" else float(fps)
     if not np.isfinite(out_fps) or out_fps <= 0 or out_fps > fps:
         raise ValueError(f"out_fps: must be in (0, fps={fps}], got {out_fps!r}")
-    ffmpeg = _ffmpeg_exe() if suffix == ".mp4" else None  # fail before any drawing
+    if suffix == ".mp4":
+        ffmpeg_exe()  # fail before any drawing
     x = check_motion(np.asarray(motion), name="motion")
     skel = resolve_skeleton(skeleton, x.shape[1])
     if trajectory is not None:
@@ -397,13 +349,11 @@ def skeleton_animation(
                 f"with motion {x.shape}"
             )
         x = x + traj[:, None, :]
-    wave = None
+    wave, sound = None, None
     if audio is not None:
-        from momu.features.audio import check_waveform
-
         if sample_rate is None:
             raise ValueError("sample_rate: required when audio is given")
-        wave = check_waveform(audio, sample_rate)
+        wave, sound = _audio_channels(audio, sample_rate)
     xy = screen_coordinates(x, plane=plane, y_down=y_down)
     frames = output_frames(xy.shape[0], fps, out_fps)
     play_fps = float(out_fps)
@@ -426,7 +376,10 @@ def skeleton_animation(
     ax.set_aspect("equal", adjustable="box")
     ax.set_xticks([])
     ax.set_yticks([])
-    caption = ax.set_title(title or "")
+    # the title is drawn once with the background; only the clock is redrawn each frame (text is the
+    # costliest artist to draw: half the glyphs, a third less drawing time per frame)
+    ax.set_title(title or "", loc="left")
+    clock = ax.set_title("", loc="right")
     head = None
     if ax_audio is not None and wave is not None and sample_rate is not None:
         from momu.render.beat_plot import waveform_envelope
@@ -442,21 +395,22 @@ def skeleton_animation(
         pose = xy[i]
         lines.set_segments(list(pose[bones]))  # (B, 2 ends, 2 coordinates)
         joints.set_data(pose[:, 0], pose[:, 1])
-        caption.set_text(f"{title + '  ' if title else ''}t = {i / fps:5.2f} s")
-        artists: list[Artist] = [lines, joints, caption]
+        clock.set_text(f"t = {i / fps:5.2f} s")
+        artists: list[Artist] = [lines, joints, clock]
         if head is not None:
             head.set_xdata([i / fps, i / fps])
             artists.append(head)
         return artists
 
-    animated: list[Artist] = [lines, joints, caption] + ([head] if head is not None else [])
+    animated: list[Artist] = [lines, joints, clock] + ([head] if head is not None else [])
     images = _blit_frames(fig, update, animated, frames)
+    if progress is not None:
+        images = _reported(images, progress)
     with atomic_path(path) as tmp:
         if suffix == ".gif":
             _write_gif(tmp, images, play_fps)
         else:
-            assert ffmpeg is not None
-            _write_mp4(ffmpeg, tmp, images, play_fps, wave, sample_rate, len(frames))
+            write_mp4(tmp, images, play_fps, sound, sample_rate, len(frames))
     logger.debug("wrote %d-frame animation %s (%.2f fps)", len(frames), path, play_fps)
     return path
 
