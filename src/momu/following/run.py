@@ -158,12 +158,10 @@ def _run(
     generators: dict[str, dict[str, Any]],
     node: dict[str, Any],
 ) -> int:
-    import torch
 
     from momu.engine.provenance import git_commit, package_versions
     from momu.following import run_benchmark, write_results
 
-    torch.set_num_threads(max(1, torch.get_num_threads()))
     start = time.time()
     directions = {
         d: run_benchmark(
