@@ -52,11 +52,13 @@ def test_verdict_rules() -> None:
     assert verdict(_e(-0.1, 0.1), "above") == CANNOT_TELL
     assert verdict(_e(0.4, 0.6), "not_below", 0.5) == PASSES
     assert verdict(_e(0.1, 0.3), "not_below", 0.5) == FAILS
-    assert verdict(_e(0.5, 1.1), "slope", 0.0, 0.9) == PASSES
-    assert verdict(_e(0.5, 0.8), "slope", 0.0, 0.95) == FAILS  # excludes ground truth's value
-    assert verdict(_e(-0.2, 1.1), "slope", 0.0, 0.95) == CANNOT_TELL
-    assert verdict(_e(-0.2, 0.1), "slope", 0.0, 0.95) == FAILS  # excludes ground truth's value
-    assert verdict(_e(-0.2, -0.1), "slope", 0.0, 0.95) == FAILS
+    gt = (0.9, 1.05)
+    assert verdict(_e(0.5, 1.1), "slope", 0.0, gt) == PASSES
+    assert verdict(_e(0.5, 0.92), "slope", 0.0, gt) == PASSES  # overlaps ground truth's interval
+    assert verdict(_e(0.5, 0.8), "slope", 0.0, gt) == FAILS  # disjoint from ground truth's interval
+    assert verdict(_e(-0.2, 1.1), "slope", 0.0, gt) == CANNOT_TELL
+    assert verdict(_e(-0.2, 0.1), "slope", 0.0, gt) == FAILS
+    assert verdict(_e(-0.2, -0.1), "slope", 0.0, gt) == FAILS
     assert verdict(Estimate(0.2, 0.1, 0.3, 5, 3), "within", 0.1, 0.5) == PASSES
     assert verdict(Estimate(0.05, 0.0, 0.1, 5, 3), "within", 0.1, 0.5) == FAILS
 

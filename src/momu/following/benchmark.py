@@ -179,7 +179,8 @@ def _verdicts(rows: list[dict[str, Any]], reference: dict[str, dict[str, float]]
     """Raw verdicts on every row, then the gated verdicts of the generator rows (in place)."""
     by_id = {r["id"]: r for r in rows}
     gt = by_id.get("ground_truth")
-    gt_slope = gt["tests"]["tempo_following"].get("estimate") if gt else None
+    slope = gt["tests"]["tempo_following"] if gt else {}
+    gt_slope = (slope["low"], slope["high"]) if "low" in slope else None
     for r in rows:
         for t, d in r["tests"].items():
             if "estimate" not in d:

@@ -16,8 +16,9 @@ tell").
   ``cannot tell`` otherwise;
 * ``not_below`` (input sensitivity: "not distinguishable from, or above") — ``fails`` only when the
   whole interval lies below ``t``, else ``passes``;
-* ``slope`` (tempo following) — ``passes`` when the interval excludes 0 (above it) *and* includes the
-  ground truth's estimate; ``fails`` when it lies at or below 0 or excludes the ground truth's value;
+* ``slope`` (tempo following) — ``passes`` when the interval excludes 0 (above it) *and* is consistent
+  with ground truth's slope on the same data (the two intervals overlap: ground truth's value is an
+  estimate too); ``fails`` when it lies at or below 0 or is disjoint from ground truth's interval;
 * ``within`` (realism) — ``passes`` when the estimate lies inside the real data's 5th-95th percentile.
 
 :func:`gate` then withholds a generator's verdict on a test that ground truth does not pass on the same
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -101,8 +103,12 @@ def song_seed_bootstrap(
     return Estimate(estimate, float(min(low, estimate)), float(max(high, estimate)), n, seeds)
 
 
-def verdict(est: Estimate, rule: str, threshold: float = 0.0, reference: float | None = None) -> str:
-    """The verdict of ``est`` under ``rule`` (``above``, ``not_below``, ``slope``, ``within``)."""
+def verdict(est: Estimate, rule: str, threshold: float = 0.0, reference: Any = None) -> str:
+    """The verdict of ``est`` under ``rule`` (``above``, ``not_below``, ``slope``, ``within``).
+
+    ``reference``: for ``slope`` the ground truth's interval ``(low, high)``; for ``within`` the upper
+    bound (``threshold`` is the lower one).
+    """
     if not np.isfinite(est.estimate):
         return CANNOT_TELL  # nothing measured (e.g. input sensitivity with one seed)
     if rule == "within":
@@ -117,8 +123,10 @@ def verdict(est: Estimate, rule: str, threshold: float = 0.0, reference: float |
     if rule == "slope":
         if est.high <= 0.0:
             return FAILS
-        if reference is not None and np.isfinite(reference) and not est.low <= reference <= est.high:
-            return FAILS
+        if reference is not None:
+            ref_low, ref_high = reference
+            if np.isfinite(ref_low) and np.isfinite(ref_high) and (est.high < ref_low or est.low > ref_high):
+                return FAILS
         return PASSES if est.low > 0.0 else CANNOT_TELL
     raise ValueError(f"rule: expected above, not_below, slope or within, got {rule!r}")
 
