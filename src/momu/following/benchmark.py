@@ -37,7 +37,7 @@ from momu.following.realism import REALISM_KEYS, realism_stats
 from momu.following.signals import RATE, motion_at_rate
 from momu.following.stats import PASSES, Estimate, gate, song_seed_bootstrap, verdict
 
-__all__ = ["run_benchmark", "TEST_RULES", "analyse_inputs", "reference_realism"]
+__all__ = ["run_benchmark", "rejudge", "TEST_RULES", "analyse_inputs", "reference_realism"]
 
 log = logging.getLogger(__name__)
 
@@ -213,6 +213,16 @@ def _verdicts(rows: list[dict[str, Any]], reference: dict[str, dict[str, float]]
                 and c["tests"][t].get("raw_verdict") == PASSES
             ]
             d["verdict"] = gate(d["raw_verdict"], gt_verdict, passing)
+
+
+def rejudge(results: dict[str, Any]) -> dict[str, Any]:
+    """``results`` (one direction's, or ``{"directions": ...}``) with every verdict recomputed from its
+    stored estimates and intervals by this version's rules (in place; returned for chaining)."""
+    for res in results["directions"].values() if "directions" in results else [results]:
+        _verdicts(res["rows"], res.get("reference_realism", {}))
+        gt = next((r for r in res["rows"] if r["id"] == "ground_truth"), None)
+        res["ground_truth_passes"] = [t for t in TESTS if gt and gt["tests"][t].get("raw_verdict") == PASSES]
+    return results
 
 
 def run_benchmark(

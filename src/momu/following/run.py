@@ -162,7 +162,7 @@ def _run(
     from momu.engine.provenance import git_commit, package_versions
     from momu.following import run_benchmark, write_results
 
-    start = time.time()
+    start, commit = time.time(), git_commit()  # the code that runs, not what is checked out at the end
     directions = {
         d: run_benchmark(
             pairs, gens, direction=d, seeds=args.seeds, controls=not args.no_controls, progress=not args.quiet
@@ -188,7 +188,7 @@ def _run(
                 "recipes/music_following.py",
                 *(argv if argv is not None else sys.argv[1:]),
             ],
-            "git_commit": git_commit(),
+            "git_commit": commit,
             "versions": package_versions(),
             "wall_time_s": round(time.time() - start, 1),
         },
