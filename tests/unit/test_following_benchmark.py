@@ -116,3 +116,23 @@ def test_bad_options_one_line_exit_2(tmp_path: Path, argv: list[str], needle: st
     lines = err.getvalue().strip().splitlines()
     assert len(lines) == 1 and needle in lines[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_a_folder_of_generated_dances_is_scored_like_its_ground_truth(tmp_path: Path) -> None:
+    """Real dances saved as 'generated' outputs (whole songs, momu eval's layout) score exactly as the
+    ground-truth row; the tests that need a generator say so."""
+    from momu.following.run import main
+
+    gen = tmp_path / "gen"
+    gen.mkdir()
+    for p in load_pairs(dataset_node("synth", "val", "dwm21", 5.0, 2), 5.0, 2):
+        np.save(gen / f"{p.id}.npy", p.motion.astype(np.float32))
+        (gen / f"{p.id}.json").write_text(json.dumps({"fps": p.fps, "skeleton": p.skeleton}))
+    argv = ["--generator", "ground_truth_only", "--generated", str(gen), "--songs", "2", "--seconds", "5",
+            "--seeds", "0", "--no-controls", "--out", str(tmp_path), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    rows = {r["id"]: r for r in json.loads((tmp_path / "music_following" / "results.json").read_text())
+            ["directions"]["dance"]["rows"]}  # fmt: skip
+    g, gt = rows["generated:gen"]["tests"], rows["ground_truth"]["tests"]
+    assert g["beat_phase_bailando"]["estimate"] == pytest.approx(gt["beat_phase_bailando"]["estimate"])
+    assert g["input_sensitivity"]["verdict"] == g["tempo_following"]["verdict"] == "needs a generator"

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Pair", "LEAD_S", "DWM_SPLIT", "load_pairs", "dataset_node", "MIN_SECONDS"]
+__all__ = ["Pair", "LEAD_S", "DWM_SPLIT", "load_pairs", "load_generated", "dataset_node", "MIN_SECONDS"]
 
 LEAD_S = 2.0
 """Where an excerpt starts in a clip long enough for it (s)."""
@@ -123,4 +123,37 @@ def load_pairs(node: dict[str, Any], seconds: float, songs: int | None, fps: flo
         )
         if songs is not None and len(out) == songs:
             break
+    return out
+
+
+def load_generated(
+    folder: Path, pairs: list[Pair], direction: str, fps: float = 30.0
+) -> list[tuple[np.ndarray, float]]:
+    """Outputs generated elsewhere for the benchmark's songs, cut to their excerpts.
+
+    ``folder`` holds, per song id, ``<id>.npy|.npz`` (music → dance: the dance generated for the whole
+    song, from its start) or ``<id>.wav|...`` (dance → music: the music for the whole dance), in
+    ``momu eval``'s layout (a ``.npy``'s rate from its ``<id>.json`` sidecar, else ``fps``).
+
+    Raises:
+        ValueError: a song without its file (one line naming the folder and the ids).
+    """
+    from momu.cli.eval_inputs import load_pairs as eval_pairs
+
+    clips = {c.id: c for c in eval_pairs(folder, folder, fps)[0]}
+    kind = "motion" if direction == "dance" else "audio"
+    missing = [p.id for p in pairs if p.id not in clips or getattr(clips[p.id], kind) is None]
+    if missing:
+        raise ValueError(f"{folder}: no generated {kind} for {', '.join(missing[:10])}")
+    out: list[tuple[np.ndarray, float]] = []
+    for p in pairs:
+        c = clips[p.id]
+        if direction == "dance":
+            m = np.asarray(c.motion, dtype=np.float64)
+            a = int(round(p.start * c.fps))
+            out.append((m[a : a + int(round(p.seconds * c.fps))], float(c.fps)))
+        else:
+            y, sr = np.asarray(c.audio, dtype=np.float32), int(c.sample_rate or 0)
+            a = int(round(p.start * sr))
+            out.append((y[a : a + int(round(p.seconds * sr))], float(sr)))
     return out

@@ -64,6 +64,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="frame rate of .npy motions in a pair folder without a sidecar",
     )
     p.add_argument(
+        "--generated",
+        type=Path,
+        default=None,
+        help="a folder of outputs generated elsewhere, one per song id (<id>.npy|.npz dances for music → "
+        "dance, <id>.wav music for dance → music, generated from the start of the whole song or dance): "
+        "a row scored on the tests that need no generator",
+    )
+    p.add_argument(
         "--no-controls", action="store_true", help="skip the control inputs (silence, noise, clicks ...)"
     )
     p.add_argument("--out", type=Path, default=Path("outputs"))
@@ -145,10 +153,22 @@ def main(argv: list[str] | None = None) -> int:
             )
             for d in directions:
                 generators[d][name] = from_model_dir(folder, d)
+        generated: dict[str, dict[str, Any]] = {d: {} for d in directions}
+        if args.generated is not None:
+            from momu.cli.eval_inputs import EvalInputError
+            from momu.following.pairs import load_generated
+
+            if len(directions) > 1:
+                raise BenchmarkInputError("--generated: give --direction dance or music (one kind of output)")
+            try:
+                outputs = load_generated(args.generated, pairs, directions[0], args.fps)
+            except (EvalInputError, ValueError) as exc:
+                raise BenchmarkInputError(f"--generated {str(exc).splitlines()[0]}") from None
+            generated[directions[0]][f"generated:{args.generated.name}"] = outputs
     except (BenchmarkInputError, GenerateInputError) as exc:
         sys.stderr.write(f"music_following: error: {exc}\n")
         return 2
-    return _run(args, argv, pairs, generators, node)
+    return _run(args, argv, pairs, generators, generated, node)
 
 
 def _run(
@@ -156,6 +176,7 @@ def _run(
     argv: list[str] | None,
     pairs: list[Any],
     generators: dict[str, dict[str, Any]],
+    generated: dict[str, dict[str, Any]],
     node: dict[str, Any],
 ) -> int:
 
@@ -165,7 +186,13 @@ def _run(
     start, commit = time.time(), git_commit()  # the code that runs, not what is checked out at the end
     directions = {
         d: run_benchmark(
-            pairs, gens, direction=d, seeds=args.seeds, controls=not args.no_controls, progress=not args.quiet
+            pairs,
+            gens,
+            direction=d,
+            generated=generated[d],
+            seeds=args.seeds,
+            controls=not args.no_controls,
+            progress=not args.quiet,
         )
         for d, gens in generators.items()
     }
