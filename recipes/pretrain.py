@@ -1,6 +1,6 @@
 """Train, check and install the model shipped with momu (``nox -s pretrain``; non-default).
 
-    python recipes/pretrain.py [--work outputs/pretrain] [--skip-train] [--eval-seconds 56]
+    python recipes/pretrain.py [--work outputs/pretrain] [--skip-train] [--eval-seconds 15]
 
 1. ``momu train momu`` on ``synth_dance`` with the ``dwm21`` skeleton (3D, Dance with Melody's
    21 joints, 25 fps) at the ``cpu`` preset, seed 0 — data anyone can regenerate and check against the
@@ -11,9 +11,10 @@
    :data:`SHIPPED_SAMPLER` (fewer denoising steps than the cpu preset's 1000-step DDPM, so that a
    3-minute song takes under a minute on 2 cores; ``momu generate --model`` with a folder trained at
    the preset keeps the preset's sampler).
-3. Where the real Dance with Melody songs are present (``../shared/data``), the held-out check of
-   :mod:`momu.generation.follows_music` — does the dance score higher against its own song than
-   against another — is written to ``evaluation.json`` beside the model, with 95 % intervals.
+3. Where the real Dance with Melody songs are present (``../shared/data``), the music-following
+   benchmark (:mod:`momu.following`, docs/following.md: input sensitivity, tempo following, beat phase,
+   matched vs mismatched, realism, with calibration rows and 95 % intervals) on the validation split is
+   written to ``evaluation.json`` beside the model.
 """
 
 from __future__ import annotations
@@ -59,47 +60,28 @@ def _install(model: Path) -> Path:
     return dst
 
 
-def _songs(seconds: float) -> list:
-    from momu.config import build_component
-    from momu.generation.follows_music import Song
+def evaluate(model_dir: Path, seconds: float) -> dict | None:
+    """The music-following benchmark (:mod:`momu.following`, docs/following.md) of the model in
+    ``model_dir``, both directions, on ``seconds`` of each song of the real Dance with Melody validation
+    split (the project's agreed split), seeds :data:`SEEDS`, with its calibration rows."""
+    from momu.following import dataset_node, from_model_dir, load_pairs, run_benchmark
 
     shared = Path(os.environ.get("MOMU_SHARED_DATA") or ROOT.parent / "shared" / "data")
     root = shared / "dance_with_melody"
     if not root.is_dir():
-        return []
-    ds = build_component({"name": "dance_with_melody", "root": str(root), "sample_rate": 16000}, "datasets")
-    out = []
-    for i in range(len(ds)):
-        clip = ds[i]
-        n = int(seconds * clip.sample_rate)
-        frames = int(seconds * clip.fps)
-        out.append(Song(clip.id, clip.audio[:n], int(clip.sample_rate), clip.motion[:frames], clip.fps))
-    return out
-
-
-def evaluate(model_dir: Path, seconds: float, schedule: str = "two_pass") -> dict | None:
-    """The held-out follows-music study of the model in ``model_dir`` on ``seconds`` of each real song,
-    long songs generated with the window ``schedule`` (:mod:`momu.generation.windows`)."""
-    from momu.generation.follows_music import follow_music_study
-    from momu.generation.momu_long import music_to_motion_long
-    from momu.methods.momu import MoMuModel
-
-    songs = _songs(seconds)
-    if not songs:
         log.warning("real Dance with Melody songs not found: no held-out evaluation")
         return None
-    model = MoMuModel.load(model_dir)
-
-    def generate(song, seed: int):
-        (motion,) = music_to_motion_long(model, [song.audio], song.sample_rate, [seed], schedule=schedule)
-        return motion, model.rates.motion_fps
-
+    pairs = load_pairs(dataset_node(str(root), "val", "dwm21", seconds, 8), seconds, 8)
     start = time.time()
-    result = follow_music_study(songs, generate, SEEDS)
+    result: dict = {"directions": {}}
+    for direction in ("dance", "music"):
+        gens = {NAME: from_model_dir(model_dir, direction)}
+        result["directions"][direction] = run_benchmark(
+            pairs, gens, direction=direction, seeds=SEEDS, controls=False
+        )
     result["seconds_per_song"] = seconds
-    result["window_schedule"] = schedule
     result["wall_time_s"] = round(time.time() - start, 1)
-    result["data"] = "Dance with Melody (8 public dances, ../shared/data): songs held out from training"
+    result["data"] = "Dance with Melody validation split (../shared/data): songs held out from training"
     return result
 
 
@@ -111,8 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--eval-seconds",
         type=float,
-        default=56.0,
-        help="seconds of each held-out song (the shortest dance: 56.4 s)",
+        default=15.0,
+        help="seconds of each held-out song excerpt (the benchmark's, reproductions/music_following_dwm)",
     )
     args = p.parse_args(argv)
     from momu.training import find_model, train_method
@@ -123,11 +105,12 @@ def main(argv: list[str] | None = None) -> int:
     installed = _install(find_model(args.work))
     result = evaluate(installed, args.eval_seconds)
     if result is not None:
-        (installed / "evaluation.json").write_text(json.dumps(result, indent=2) + "\n")
-        summary = result["generated"]["summary"]  # type: ignore[index]
-        for key in ("bas_own_minus_other", "f1_own_minus_other"):
-            s = summary[key]
-            log.info("%s: %.4f [%.4f, %.4f]", key, s["mean"], s["low"], s["high"])
+        (installed / "evaluation.json").write_text(json.dumps(result, indent=2, default=str) + "\n")
+        for direction, res in result["directions"].items():  # type: ignore[union-attr]
+            row = next(r for r in res["rows"] if r["kind"] == "generator")
+            log.info(
+                "%s: %s", direction, ", ".join(f"{t} {d.get('verdict')}" for t, d in row["tests"].items())
+            )
     return 0
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "check_length",
     "describe",
     "generate_method_dance",
+    "method_dance",
     "generate_text",
     "load_method_model",
 ]
@@ -121,6 +122,11 @@ def generate_method_dance(record: ModelRecord, song: Song, seed: int) -> tuple[n
         check_length(record, song.duration)
     model = load_method_model(record)
     log.info("momu generate dance: %s, %.1f s of music", describe(record), song.duration)
+    return method_dance(record, model, song, seed)
+
+
+def method_dance(record: ModelRecord, model: Any, song: Song, seed: int) -> tuple[np.ndarray, float]:
+    """A dance for ``song`` from an already loaded MoFusion or HarmoGAN ``model`` (``record``'s)."""
     try:
         if record.method == "mofusion":
             (motion,) = model.music_to_dance(

@@ -1,10 +1,16 @@
 """Does a generated dance follow *its* song? Own-song vs other-song scores, paired per song, with intervals.
 
+Superseded by the calibrated music-following benchmark (:mod:`momu.following`,
+``recipes/music_following.py``, docs/following.md), which adds input sensitivity, tempo following,
+beat phase, calibration rows and verdicts; this module stays as the short own-vs-other check of
+``benchmarks/shipped_follows_synth.py`` and ``benchmarks/long_song_follows_music.py``, and scores BAS
+with the benchmark's code.
+
 For every song ``i`` the model dances ``g_i`` (per seed). ``g_i`` is scored against its own song and
 against another song ``π(i) = i + 1 mod n`` cut to the same length, with
 
-* **BAS** (Bailando's Beat Align Score, METRICS.md §1.6): music beats of the song (librosa, Bailando
-  recipe) against the dance's kinematic beats (velocity minima), σ = 3 frames at the motion's rate;
+* **BAS** (Bailando's definition, :func:`momu.following.beat_align.bas_seconds`): the song's beats
+  (librosa) against the dance's kinematic beats, both at the benchmark's common rate, σ = 50 ms;
 * **kinematic-beat F1** (MoMu App. B.5, LORIS scores): the song's onset bins against the dance's
   kinematic-beat bins (MoMu Eq. 2), ``bin_seconds`` wide; per song, the harmonic mean of that pair's
   beat coverage and hit rate (the table F1 is the harmonic mean of their means over pairs).
@@ -23,15 +29,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from momu.metrics.beat_align import bas
-from momu.metrics.beats import music_beats, resample_beat_frames
+from momu.following.beat_align import bas_seconds, kinematic_beats
+from momu.following.signals import motion_at_rate, song_beats
 from momu.metrics.kinematic_beats import kinematic_beat_bins
 from momu.metrics.loris_scores import onset_beat_bins, pair_beat_scores
 
 __all__ = ["Song", "pair_scores", "follow_music_study", "interval"]
-
-MUSIC_BEAT_FPS = 60.0
-"""Frame rate of :func:`momu.metrics.beats.music_beats` indices."""
 
 
 @dataclass(frozen=True)
@@ -46,8 +49,8 @@ class Song:
 
 
 def _bas(motion: np.ndarray, fps: float, audio: np.ndarray, sr: int) -> float:
-    beats = resample_beat_frames(music_beats(audio, sr), MUSIC_BEAT_FPS, fps)
-    return bas(motion, beats)
+    dance = kinematic_beats(motion_at_rate(motion, fps), "bailando")
+    return bas_seconds(song_beats(audio, sr), dance, motion.shape[0] / fps, "bailando")
 
 
 def _f1(motion: np.ndarray, fps: float, audio: np.ndarray, sr: int, bin_seconds: float) -> float:

@@ -1,0 +1,138 @@
+"""run_benchmark on constructed generators whose answer is known, and the recipe end to end (tiny)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from momu.following import DanceGenerator, dataset_node, load_pairs, run_benchmark
+from momu.following.signals import song_beats
+
+
+@pytest.fixture(scope="module")
+def pairs() -> list:
+    return load_pairs(dataset_node("synth", "val", "dwm21", 6.0, 3), 6.0, 3)
+
+
+class Bobbing:
+    """Follows the music: a pose bobbing once per beat of the song it hears (beats tracked by librosa),
+    plus a seed-dependent sway (so seeds differ)."""
+
+    def __init__(self, pose: np.ndarray) -> None:
+        self.pose = pose
+
+    def generate(self, audio: np.ndarray, sample_rate: int, seed: int) -> tuple[np.ndarray, float]:
+        fps = 25.0
+        t = np.arange(int(len(audio) / sample_rate * fps)) / fps
+        beats = song_beats(audio, sample_rate)
+        period = float(np.median(np.diff(beats))) if len(beats) > 1 else 0.5
+        phase = (t - (beats[0] if len(beats) else 0.0)) / period
+        motion = np.repeat(self.pose[None], len(t), axis=0).copy()
+        motion[..., 1] += 0.1 * np.cos(np.pi * phase)[:, None]  # extremes (speed 0) on the beats
+        motion[..., 0] += 0.05 * np.sin(2 * np.pi * 0.1 * t + seed)[:, None]
+        return motion, fps
+
+
+class Frozen:
+    """Ignores the music: the same pose whatever it hears."""
+
+    def __init__(self, pose: np.ndarray) -> None:
+        self.pose = pose
+
+    def generate(self, audio: np.ndarray, sample_rate: int, seed: int) -> tuple[np.ndarray, float]:
+        frames = int(len(audio) / sample_rate * 25.0)
+        return np.repeat(self.pose[None], frames, axis=0), 25.0
+
+
+def test_a_dance_on_the_beat_follows_and_a_frozen_one_does_not(pairs: list) -> None:
+    pose = pairs[0].excerpt_motion()[0]
+    assert isinstance(Bobbing(pose), DanceGenerator)
+    gens = {"bobbing": Bobbing(pose), "frozen": Frozen(pose)}
+    calibration = ("ground_truth", "static", "half_beat_shift")
+    res = run_benchmark(pairs, gens, seeds=[0, 1], calibration=calibration, controls=False, progress=False)
+    rows = {r["id"]: r for r in res["rows"]}
+    assert "tempo_following" in res["ground_truth_passes"]
+    bob, frozen = rows["bobbing"]["tests"], rows["frozen"]["tests"]
+    assert bob["tempo_following"]["raw_verdict"] == "passes"
+    assert bob["tempo_following"]["estimate"] > 0.8
+    assert frozen["tempo_following"]["verdict"] == "fails"
+    assert frozen["input_sensitivity"]["verdict"] == "fails"
+    assert bob["beat_phase_bailando"]["estimate"] > 0.2
+    assert frozen["beat_phase_bailando"]["estimate"] == 0.0
+    assert rows["half_beat_shift"]["tests"]["beat_phase_bailando"]["raw_verdict"] == "fails"
+    assert rows["static"]["realism"]["joint_speed"]["verdict"] == "fails"
+
+
+def test_the_recipe_end_to_end_with_ground_truth_only(tmp_path: Path) -> None:
+    from momu.following.run import main
+
+    argv = [
+        "--generator",
+        "ground_truth_only",
+        "--direction",
+        "both",
+        "--songs",
+        "2",
+        "--seconds",
+        "5",
+        "--seeds",
+        "0",
+        "--out",
+        str(tmp_path),
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    out = tmp_path / "music_following"
+    res = json.loads((out / "results.json").read_text())
+    assert set(res["directions"]) == {"dance", "music"}
+    assert res["directions"]["dance"]["rows"][0]["id"] == "ground_truth"
+    assert res["provenance"]["command"][1] == "recipes/music_following.py"
+    assert "Ground truth passes" in (out / "results.md").read_text()
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--songs", "1"], "--songs"),
+        (["--seconds", "1"], "--seconds"),
+        (["--data", "/nonexistent/folder"], "--data"),
+        (["--generator", "/nonexistent/model"], "--generator"),
+        (["--seeds", "0", "0"], "--seeds"),
+    ],
+)
+def test_bad_options_one_line_exit_2(tmp_path: Path, argv: list[str], needle: str) -> None:
+    import contextlib
+    import io
+
+    from momu.following.run import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["--generator", "ground_truth_only", *argv, "--out", str(tmp_path / "o")])
+    assert code == 2
+    lines = err.getvalue().strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_folder_of_generated_dances_is_scored_like_its_ground_truth(tmp_path: Path) -> None:
+    """Real dances saved as 'generated' outputs (whole songs, momu eval's layout) score exactly as the
+    ground-truth row; the tests that need a generator say so."""
+    from momu.following.run import main
+
+    gen = tmp_path / "gen"
+    gen.mkdir()
+    for p in load_pairs(dataset_node("synth", "val", "dwm21", 5.0, 2), 5.0, 2):
+        np.save(gen / f"{p.id}.npy", p.motion.astype(np.float32))
+        (gen / f"{p.id}.json").write_text(json.dumps({"fps": p.fps, "skeleton": p.skeleton}))
+    argv = ["--generator", "ground_truth_only", "--generated", str(gen), "--songs", "2", "--seconds", "5",
+            "--seeds", "0", "--no-controls", "--out", str(tmp_path), "--quiet"]  # fmt: skip
+    assert main(argv) == 0
+    rows = {r["id"]: r for r in json.loads((tmp_path / "music_following" / "results.json").read_text())
+            ["directions"]["dance"]["rows"]}  # fmt: skip
+    g, gt = rows["generated:gen"]["tests"], rows["ground_truth"]["tests"]
+    assert g["beat_phase_bailando"]["estimate"] == pytest.approx(gt["beat_phase_bailando"]["estimate"])
+    assert g["input_sensitivity"]["verdict"] == g["tempo_following"]["verdict"] == "needs a generator"
