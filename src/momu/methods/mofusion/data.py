@@ -45,6 +45,7 @@ __all__ = [
     "MoFusionNormalizers",
     "MusicWindows",
     "TextItems",
+    "collate_music",
     "collate_text",
 ]
 
@@ -167,7 +168,14 @@ class MoFusionNormalizers:
 
 
 class MusicWindows(Dataset[dict[str, torch.Tensor]]):
-    """Fixed-length training windows: standardised pose vectors ``x (N, 3J)`` and mel ``cond (M, 80)``."""
+    """Training items: standardised pose vectors ``x (N, 3J)`` and mel ``cond (M, 80)``.
+
+    A clip at least ``seconds`` long gives windows of ``seconds`` every ``hop`` seconds; a shorter clip
+    gives one item, the whole clip (§3.3: the fully convolutional U-Net "allows us to train the
+    network with motions of various lengths"; AIST++ runs 7.4–48 s, so 20-s windows alone would drop
+    every sequence under 20 s). :func:`collate_music` pads a batch of unequal items and masks the
+    padding (``x_mask``, ``cond_mask``).
+    """
 
     def __init__(
         self,
@@ -181,9 +189,13 @@ class MusicWindows(Dataset[dict[str, torch.Tensor]]):
         assert norms.mel is not None
         n, m = int(round(seconds * fps)), mel_frames(seconds)
         self.items: list[dict[str, torch.Tensor]] = []
+        self.whole_clips = 0
         for clip in clips:
             pose = norms.pose.transform(clip_pose(clip, fps, root)).astype(np.float32)
             mel = norms.mel.transform(clip_mel(clip)).astype(np.float32)
+            if clip.duration + 1e-6 < seconds:
+                self._add_whole(pose, mel, fps)
+                continue
             start = 0.0
             while start + seconds <= clip.duration + 1e-6:
                 f0, c0 = int(round(start * fps)), int(round(start * MEL_FPS))
@@ -193,15 +205,46 @@ class MusicWindows(Dataset[dict[str, torch.Tensor]]):
                     )
                 start += hop
         if not self.items:
-            raise ValueError(
-                f"no training window of {seconds} s fits the training clips (raise their length)"
-            )
+            raise ValueError(f"no training item fits the training clips (windows of {seconds} s)")
+
+    def _add_whole(self, pose: np.ndarray, mel: np.ndarray, fps: float) -> None:
+        """One item of a clip shorter than the window: the frames its music covers."""
+        frames = min(len(pose), int(np.floor(len(mel) / MEL_FPS * fps + 1e-6)))
+        if frames < 2:
+            return
+        cond = mel[: min(len(mel), mel_frames(frames / fps))]
+        self.items.append({"x": torch.from_numpy(pose[:frames]), "cond": torch.from_numpy(cond)})
+        self.whole_clips += 1
 
     def __len__(self) -> int:
         return len(self.items)
 
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
         return self.items[index]
+
+
+def _pad_stack(items: list[torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """``(B, T_max, C)`` zero-padded, and the ``(B, T_max)`` valid-frame mask (``None``: equal lengths)."""
+    lengths = [int(x.shape[0]) for x in items]
+    if len(set(lengths)) == 1:
+        return torch.stack(items), None
+    out = items[0].new_zeros(len(items), max(lengths), items[0].shape[-1])
+    mask = torch.zeros(len(items), max(lengths), dtype=torch.bool)
+    for i, x in enumerate(items):
+        out[i, : x.shape[0]] = x
+        mask[i, : x.shape[0]] = True
+    return out, mask
+
+
+def collate_music(batch: list[dict[str, torch.Tensor]]) -> dict[str, torch.Tensor]:
+    """Stack :class:`MusicWindows` items; items of unequal length are padded, with ``x_mask (B, T)``
+    and ``cond_mask (B, M)`` (absent when every item has the same length: a plain stack)."""
+    out: dict[str, torch.Tensor] = {}
+    for key, mask_key in (("x", "x_mask"), ("cond", "cond_mask")):
+        out[key], mask = _pad_stack([b[key] for b in batch])
+        if mask is not None:
+            out[mask_key] = mask
+    return out
 
 
 class TextItems(Dataset[dict[str, Any]]):

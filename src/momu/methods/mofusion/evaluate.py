@@ -45,7 +45,7 @@ from momu.methods.mofusion.data import crop, global_positions, resample_motion, 
 from momu.methods.mofusion.method import MoFusion
 from momu.methods.mofusion.model import MoFusionModel
 from momu.methods.momu.generation import eval_seeds
-from momu.methods.momu.scoring import derangement
+from momu.methods.momu.scoring import derangement, excerpt_ids
 from momu.metrics.beat_align import bas
 from momu.metrics.beats import music_beats
 from momu.registry import METRICS
@@ -90,17 +90,28 @@ def fit_mofusion(ctx: RunContext, cfg: DictConfig, seed: int) -> tuple[MoFusion,
     return method, model, dataset, str(Path("models") / stage)
 
 
-def eval_clips(dataset: Any, split: str, count: int, seconds: float, task: str) -> list[Clip]:
-    """The first ``count`` clips of ``split`` long enough for ``seconds``, cut to ``[0, seconds)``."""
+def eval_clips(
+    dataset: Any, split: str, count: int, seconds: float, task: str, *, keep_shorter: bool = False
+) -> list[Clip]:
+    """The first ``count`` clips of ``split``, cut to ``[0, seconds)``.
+
+    A clip shorter than ``seconds`` is skipped, or kept whole with ``keep_shorter`` (text→motion:
+    each caption is generated at its clip's own length, T2M's protocol). Per-clip values are
+    recorded under :func:`~momu.methods.momu.scoring.excerpt_ids` (clip and length), so rows scored
+    on other lengths of the same clips are never paired clip by clip.
+    """
     out = []
     for i in split_indices(dataset, split, task):
         clip = dataset[i]
         if clip.duration + 1e-6 >= seconds:
             out.append(crop(clip, 0.0, seconds))
+        elif keep_shorter:
+            out.append(crop(clip, 0.0, clip.duration))
         if len(out) == count:
             break
     if len(out) < 2:
-        raise ValueError(f"method.evaluation: fewer than 2 '{split}' clips of {seconds} s or more")
+        longer = "" if keep_shorter else f" of {seconds} s or more"
+        raise ValueError(f"method.evaluation: fewer than 2 '{split}' clips{longer}")
     return out
 
 
@@ -176,19 +187,27 @@ def _generate(
 
 
 def repeated_samples(
-    ctx: RunContext, sample: Any, conds: list[Any], ev: Any, seed: int
+    ctx: RunContext,
+    sample: Any,
+    conds: list[Any],
+    ev: Any,
+    seed: int,
+    seconds: list[float] | None = None,
 ) -> tuple[list[tuple[int, int]], list[np.ndarray]]:
     """``multimodality_samples`` generations for each of the first ``multimodality_clips`` conditions.
 
     ``sample(conds, seconds, seeds)`` is the model's generator (music or text); generation ``s`` of
-    condition ``i`` has its own seed. Returns the ``(i, s)`` jobs and the motions, in job order.
+    condition ``i`` has its own seed and is ``seconds[i]`` long (default: ``ev.seconds`` for all).
+    Returns the ``(i, s)`` jobs and the motions, in job order.
     """
     k, m = int(ev.multimodality_samples), min(int(ev.multimodality_clips), len(conds))
     jobs = [(i, s) for i in range(m) for s in range(k)]
+    lengths = [float(ev.seconds)] * len(conds) if seconds is None else [float(s) for s in seconds]
 
     def generate(indices: list[int]) -> list[np.ndarray]:
         seeds = [seed * 100_003 + 10_007 * (1 + jobs[j][1]) + jobs[j][0] for j in indices]
-        return list(sample([conds[jobs[j][0]] for j in indices], [ev.seconds] * len(indices), seeds))
+        conditions = [conds[jobs[j][0]] for j in indices]
+        return list(sample(conditions, [lengths[jobs[j][0]] for j in indices], seeds))
 
     with ctx.timed("sample multimodality"):
         res = map_gathered(
@@ -242,10 +261,11 @@ def evaluate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         gen = {v: [metric_motion(m, fps, fps, mfps) for m in samples[v]] for v in samples}
         perm = derangement(len(truth))
         gt_motion = [_motion(c) for c in gt]
-        scores.add_clips("bas", ROW, _bas(gen[ROW], beats))
-        scores.add_clips("bas", OTHER, _bas(gen[OTHER], beats))
-        scores.add_clips("bas", "shuffled", _bas([gt_motion[p] for p in perm], beats))
-        scores.add_clips("bas", "ground truth", _bas(gt_motion, beats))
+        ids = excerpt_ids(truth)  # every variant is scored on these crops
+        scores.add_clips("bas", ROW, _bas(gen[ROW], beats), ids=ids)
+        scores.add_clips("bas", OTHER, _bas(gen[OTHER], beats), ids=ids)
+        scores.add_clips("bas", "shuffled", _bas([gt_motion[p] for p in perm], beats), ids=ids)
+        scores.add_clips("bas", "ground truth", _bas(gt_motion, beats), ids=ids)
         seed_frames = int(round(ev.seed_seconds * mfps)) if ev.mode == "forecast" else 0
         after = {
             ROW: _bas(gen[ROW], beats, seed_frames),
@@ -253,7 +273,7 @@ def evaluate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
             "shuffled": _bas([gt_motion[p] for p in perm], beats, seed_frames),
         }
         for variant, values in after.items():
-            scores.add_clips("bas_after_seed", variant, values)
+            scores.add_clips("bas_after_seed", variant, values, ids=ids)
         gen_clips = [_clip(t, m, mfps, "/gen") for t, m in zip(truth, gen[ROW])]
         scores.metrics.update(_distributional(gen_clips, gt))
         others = eval_clips(dataset, ev.reference_split, len(truth), ev.seconds, "music")
@@ -273,6 +293,7 @@ def evaluate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
 
 
 def _kinematics(scores: Scores, samples: list[np.ndarray], truth: list[Clip], model: MoFusionModel) -> None:
+    ids = excerpt_ids(truth)
     gen = np.asarray([kinematic_columns(m, model.skeleton) for m in samples])
     gt = np.asarray(
         [
@@ -281,8 +302,8 @@ def _kinematics(scores: Scores, samples: list[np.ndarray], truth: list[Clip], mo
         ]
     )
     for k, key in enumerate(("bone_std_cm", "asym_cm")):
-        scores.add_clips(key, ROW, gen[:, k])
-        scores.add_clips(key, "ground truth", gt[:, k])
+        scores.add_clips(key, ROW, gen[:, k], ids=ids)
+        scores.add_clips(key, "ground truth", gt[:, k], ids=ids)
         scores.metrics[key] = float(gen[:, k].mean())
 
 
@@ -300,9 +321,10 @@ def _forecast_columns(
     err = np.asarray([100.0 * float(np.abs(m[:s] - g[:s]).max()) for m, g in zip(samples, gt)])
     jump = np.asarray([_boundary_jump(m, s, model.fps) for m in samples])
     jump_gt = np.asarray([_boundary_jump(g, s, model.fps) for g in gt])
-    scores.add_clips("seed_error_cm", ROW, err)
-    scores.add_clips("boundary_jump", ROW, jump)
-    scores.add_clips("boundary_jump", "ground truth", jump_gt)
+    ids = excerpt_ids(truth)
+    scores.add_clips("seed_error_cm", ROW, err, ids=ids)
+    scores.add_clips("boundary_jump", ROW, jump, ids=ids)
+    scores.add_clips("boundary_jump", "ground truth", jump_gt, ids=ids)
     scores.metrics["seed_error_cm"] = float(err.mean())
     scores.metrics["boundary_jump"] = float(jump.mean())
 
@@ -314,6 +336,7 @@ def calibrate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sc
     ev = method.cfg.evaluation
     fps = float(method.cfg.fps)
     truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "music")
+    skeleton = str(truth[0].skeleton)  # the data's own (a loader such as aistpp has no skeleton key)
     with ctx.timed("metrics"):
         beats = _beats(truth, ev.metric_fps)
         gt = _gt_metric_clips(truth, ev, fps)
@@ -330,14 +353,14 @@ def calibrate_music(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sc
         ):
             sc = Scores(metrics=dict(floor))
             values = _bas([motion[p] for p in order], beats)
-            sc.add_clips("bas", ROW, values)
+            sc.add_clips("bas", ROW, values, ids=excerpt_ids(truth))  # clip i's music
             sc.metrics["bas"] = float(values.mean())
             seed_frames = int(round(ev.seed_seconds * ev.metric_fps)) if ev.mode == "forecast" else 0
             sc.metrics["bas_after_seed"] = float(_bas([motion[p] for p in order], beats, seed_frames).mean())
             kin = np.asarray(
                 [
                     kinematic_columns(
-                        resample_motion(global_positions(truth[p]), truth[p].fps, fps), cfg.dataset.skeleton
+                        resample_motion(global_positions(truth[p]), truth[p].fps, fps), skeleton
                     )
                     for p in order
                 ]

@@ -1,10 +1,11 @@
 """Evaluation of MoFusion's text→motion row (Table 2) and its calibration rows.
 
-Per evaluation clip *i* (the first ``num_clips`` test clips, cut to ``seconds``) the model generates
-from clip *i*'s caption (``row``) and — same sampling seed — from clip π(i)'s caption (*other
-condition*). A text–motion evaluator (:mod:`momu.metrics.text_motion`) is trained from scratch on
-the train split per seed (or loaded from ``evaluation.evaluator_checkpoint``) — or, with
-``evaluation.evaluator_kind: t2m`` and its three paths, T2M's pre-trained evaluator
+Per evaluation clip *i* (the first ``num_clips`` test clips, cut to at most ``seconds``; shorter
+clips whole) the model generates, at clip *i*'s own length (T2M's protocol: the lengths come from
+the data), from clip *i*'s caption (``row``) and — same sampling seed and length — from clip π(i)'s
+caption (*other condition*). A text–motion evaluator (:mod:`momu.metrics.text_motion`) is trained
+from scratch on the train split per seed (or loaded from ``evaluation.evaluator_checkpoint``) — or,
+with ``evaluation.evaluator_kind: t2m`` and its three paths, T2M's pre-trained evaluator
 (:mod:`momu.metrics.t2m_evaluator`) — and scores, on its embeddings (each seed records which
 evaluator in ``Scores.artifacts["text_evaluator"]``):
 
@@ -13,7 +14,7 @@ evaluator in ``Scores.artifacts["text_evaluator"]``):
 * ``mm_dist`` (↓) — caption-to-motion embedding distance per clip;
 * ``diversity`` (→, closer to ground truth's is better: ``Column.closer_to``) — mean pairwise
   distance of the generated motions' embeddings; this seed's ground-truth value is the reference;
-* ``multimodality`` (↑) — mean distance between K generations per caption.
+* ``multimodality`` (↑) — mean distance between K generations per caption (at its clip's length).
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from momu.methods.mofusion.data import (
 )
 from momu.methods.mofusion.evaluate import eval_clips, fit_mofusion, repeated_samples
 from momu.methods.momu.generation import eval_seeds
-from momu.methods.momu.scoring import derangement
+from momu.methods.momu.scoring import derangement, excerpt_ids
 from momu.methods.momu.stages import stage_step
 from momu.metrics.t2m_evaluator import T2MEvaluator
 from momu.metrics.text_motion import (
@@ -178,7 +179,7 @@ def _generate(
     def generate(indices: list[int]) -> list[dict[str, np.ndarray]]:
         seeds = eval_seeds(seed, indices)
         caps = [texts[j] for j in indices] + [texts[perm[j]] for j in indices]
-        out = model.text_to_motion(caps, [ev.seconds] * len(caps), seeds * 2)
+        out = model.text_to_motion(caps, [truth[j].duration for j in indices] * 2, seeds * 2)
         n = len(indices)
         return [{ROW: out[k], OTHER: out[n + k]} for k in range(n)]
 
@@ -192,19 +193,21 @@ def _generate(
 def _multimodality(
     ctx: RunContext, model: Any, truth: list[Clip], ev: Any, seed: int, evaluator: TextEvaluator
 ) -> float:
-    jobs, res = repeated_samples(ctx, model.text_to_motion, [clip_caption(c) for c in truth], ev, seed)
+    captions, lengths = [clip_caption(c) for c in truth], [c.duration for c in truth]
+    jobs, res = repeated_samples(ctx, model.text_to_motion, captions, ev, seed, lengths)
     k = int(ev.multimodality_samples)
     emb = evaluator.embed_motions([encode_pose(r) for r in res])
     return embedding_multimodality([emb[i * k : (i + 1) * k] for i in range(len(jobs) // k)])
 
 
-def _scores(text: np.ndarray, motion: dict[str, np.ndarray], ev: Any) -> Scores:
+def _scores(text: np.ndarray, motion: dict[str, np.ndarray], ev: Any, ids: list[str]) -> Scores:
+    """R-precision, MM-Dist and Diversity of clip i's caption (``text[i]``) against each variant's
+    motion embeddings; per-clip values recorded under the clips' ``ids``."""
     sc = Scores(metrics={})
     for variant, emb in motion.items():
-        sc.add_clips(
-            "r_precision", variant, r_precision_hits(text, emb, batch=ev.r_precision_batch, top_k=ev.top_k)
-        )
-        sc.add_clips("mm_dist", variant, mm_distances(text, emb))
+        hits = r_precision_hits(text, emb, batch=ev.r_precision_batch, top_k=ev.top_k)
+        sc.add_clips("r_precision", variant, hits, ids=ids)
+        sc.add_clips("mm_dist", variant, mm_distances(text, emb), ids=ids)
     sc.metrics["r_precision"] = float(sc.clips["r_precision"][ROW].mean())
     sc.metrics["mm_dist"] = float(sc.clips["mm_dist"][ROW].mean())
     sc.metrics["diversity"] = embedding_diversity(motion[ROW])
@@ -215,7 +218,7 @@ def evaluate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     """The Table 2 row for one seed: train (or reuse) model and evaluator, generate, score."""
     method, model, dataset, folder = fit_mofusion(ctx, cfg, seed)
     ev = method.cfg.evaluation
-    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text")
+    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text", keep_shorter=True)
     evaluator = evaluator_for(ctx, cfg, dataset, seed)
     samples = _generate(ctx, model, truth, ev, seed)
     with ctx.timed("metrics"):
@@ -228,7 +231,7 @@ def evaluate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
             "shuffled": gt[perm],
             "ground truth": gt,
         }
-        scores = _scores(text, emb, ev)
+        scores = _scores(text, emb, ev, excerpt_ids(truth))
         scores.artifacts["model"] = folder
         scores.artifacts["text_evaluator"] = evaluator.describe()
         scores.add_seed_value("diversity", "ground truth", embedding_diversity(gt))
@@ -243,15 +246,16 @@ def calibrate_text(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sco
     method = build_component(cfg.method, "methods")
     dataset = build_component(cfg.dataset, "datasets")
     ev = method.cfg.evaluation
-    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text")
+    truth = eval_clips(dataset, ev.split, ev.num_clips, ev.seconds, "text", keep_shorter=True)
     evaluator = evaluator_for(ctx, cfg, dataset, seed)
+    ids = excerpt_ids(truth)
     with ctx.timed("metrics"):
         text = _texts(evaluator, truth)
         gt = evaluator.embed_motions(_poses(truth, float(method.cfg.fps)))
         perm = derangement(len(truth))
         out = {
-            "real text–motion pairs": _scores(text, {ROW: gt}, ev),
-            "text and motion shuffled": _scores(text, {ROW: gt[perm]}, ev),
+            "real text–motion pairs": _scores(text, {ROW: gt}, ev, ids),
+            "text and motion shuffled": _scores(text, {ROW: gt[perm]}, ev, ids),
         }
         for sc in out.values():
             sc.artifacts["text_evaluator"] = evaluator.describe()

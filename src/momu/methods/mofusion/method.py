@@ -32,6 +32,7 @@ from momu.methods.mofusion.data import (
     TextItems,
     clip_mel,
     clip_pose,
+    collate_music,
     collate_text,
     crop,
     split_indices,
@@ -166,11 +167,14 @@ class MoFusion:
         def data() -> Any:
             if c.task == "music":
                 windows = MusicWindows(clips, norms, c.fps, c.window_seconds, c.window_hop_seconds, root)
-                log.info("mofusion: %d training windows of %.1f s", len(windows), c.window_seconds)
+                log.info(
+                    "mofusion: %d training items: windows of %.1f s and %d whole clips shorter than that",
+                    len(windows), c.window_seconds, windows.whole_clips,
+                )  # fmt: skip
                 return windows
             return TextItems(clips, norms, c.fps, c.window_seconds, root)
 
-        collate = collate_text if c.task == "text" else None
+        collate = collate_text if c.task == "text" else collate_music
         train_cfg = dataclasses.replace(c.train, seed=seed)
         trained = ctx.stage("mofusion", key, build, data, stage_step, train_cfg, collate)
         trained = trained.to("cpu").eval()

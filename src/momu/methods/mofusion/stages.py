@@ -37,9 +37,10 @@ class MoFusionStage(nn.Module):
 
     def forward(self, batch: dict[str, Any]) -> tuple[Tensor, dict[str, Tensor]]:
         x = batch["x"]
+        cond_mask: Tensor | None
         if self.text_encoder is not None:
             cond, cond_mask = encode_text(self.text_encoder, list(batch["text"]), x.device)
         else:
-            cond, cond_mask = batch["cond"], None
+            cond, cond_mask = batch["cond"], batch.get("cond_mask")
         total, logs = self.loss(self.backbone, x, cond, x_mask=batch.get("x_mask"), cond_mask=cond_mask)
         return with_every_parameter(self, total), logs

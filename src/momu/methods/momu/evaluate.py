@@ -54,6 +54,7 @@ from momu.methods.momu.scoring import (
     beat_components,
     derangement,
     eval_lengths,
+    excerpt_ids,
     fad,
     fid,
     motion_onset_f1s,
@@ -203,6 +204,7 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
         gen_music = generate_music(ctx, model, truth, seed, ev.batch_size, other=ev.shuffled_condition)
         gen_motion = generate_motion(ctx, model, truth, seed, ev.batch_size, other=ev.shuffled_condition)
         music, motion = gen_music[ROW], gen_motion[ROW]
+    ids = excerpt_ids(truth)  # every variant of a column is scored on these crops
     with ctx.timed("metrics"):
         floors = _floors(ctx, extractors, dataset, data_key, ev, truth)
         scores.metrics["music_fad"] = fad(extractors["audio"], music, truth)
@@ -228,6 +230,7 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
                             truth, truth, music_is_reference=music_ref, bin_seconds=bins
                         ),
                     },
+                    ids,
                 )
             scores.metrics["motion_onset_f1"] = float(motion_onset_f1s(music, motion).mean())
         else:
@@ -235,13 +238,13 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
                 v: beat_components("music", clips, truth, bins) for v, clips in gen_music.items()
             }
             music_variants["shuffled"] = beat_components("music", shuffled, truth, bins)
-            add_beat_scores(scores, "music", music_variants)
+            add_beat_scores(scores, "music", music_variants, ids)
             motion_variants = {
                 v: beat_components("motion", clips, truth, bins) for v, clips in gen_motion.items()
             }
             motion_variants["shuffled"] = beat_components("motion", shuffled, truth, bins)
             motion_variants["ground truth"] = beat_components("motion", truth, truth, bins)
-            add_beat_scores(scores, "motion", motion_variants)
+            add_beat_scores(scores, "motion", motion_variants, ids)
             scores.metrics["music_onset_f1"] = float(music_onset_f1s(music, truth).mean())
             scores.metrics["motion_onset_f1"] = float(motion_onset_f1s(truth, motion).mean())
             if OTHER in gen_motion:
@@ -268,11 +271,12 @@ def calibrate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Sco
     bins = float(ev.beat_bin_seconds)
     floors = _floors(ctx, extractors, dataset, data_key, ev, truth)
     gt, shuf = Scores(metrics=dict(floors)), Scores(metrics=dict(floors))
+    ids = excerpt_ids(truth)
     with ctx.timed("metrics"):
-        add_beat_scores(gt, "music", {ROW: beat_components("music", truth, truth, bins)})
-        add_beat_scores(gt, "motion", {ROW: beat_components("motion", truth, truth, bins)})
-        add_beat_scores(shuf, "music", {ROW: beat_components("music", shuffled, truth, bins)})
-        add_beat_scores(shuf, "motion", {ROW: beat_components("motion", shuffled, truth, bins)})
+        add_beat_scores(gt, "music", {ROW: beat_components("music", truth, truth, bins)}, ids)
+        add_beat_scores(gt, "motion", {ROW: beat_components("motion", truth, truth, bins)}, ids)
+        add_beat_scores(shuf, "music", {ROW: beat_components("music", shuffled, truth, bins)}, ids)
+        add_beat_scores(shuf, "motion", {ROW: beat_components("motion", shuffled, truth, bins)}, ids)
         gt.metrics["motion_onset_f1"] = float(motion_onset_f1s(truth, truth).mean())
         shuf.metrics["motion_onset_f1"] = float(motion_onset_f1s(truth, shuffled).mean())
         shuf.metrics["music_onset_f1"] = float(music_onset_f1s(shuffled, truth).mean())

@@ -34,6 +34,7 @@ from momu.registry import METRICS
 __all__ = [
     "BEAT_KEYS",
     "derangement",
+    "excerpt_ids",
     "eval_lengths",
     "replace_clip",
     "beat_metric",
@@ -56,6 +57,14 @@ BEAT_KEYS = ("bcs", "csd", "bhs", "hsd", "f1")
 def derangement(n: int) -> list[int]:
     """``π(i) = (i + 1) mod n``: every clip paired with another one (identity for n = 1)."""
     return [(i + 1) % n for i in range(n)]
+
+
+def excerpt_ids(clips: Sequence[Clip]) -> list[str]:
+    """The identities per-clip values are recorded under (``Scores.add_clips(..., ids=)``): each
+    evaluation clip is a crop from the start of a dataset clip, named ``<clip id>@0-<seconds>s``, so
+    two rows are paired clip by clip only when they were scored on the same crops of the same clips
+    (not the 10-s and 20-s crops of one clip, nor another seed's variable lengths)."""
+    return [f"{c.id}@0-{c.duration:g}s" for c in clips]
 
 
 def eval_lengths(cfg: Any, seed: int) -> list[float]:
@@ -130,20 +139,23 @@ def pair_components(
     return components(covers, hits)
 
 
-def add_beat_scores(scores: Scores, prefix: str, by_variant: Mapping[str, np.ndarray]) -> None:
+def add_beat_scores(
+    scores: Scores, prefix: str, by_variant: Mapping[str, np.ndarray], ids: Sequence[str] | None = None
+) -> None:
     """Cells ``<prefix>_{bcs,csd,bhs,hsd,f1}`` from the row's components, and the per-clip evidence.
 
     ``by_variant`` maps :data:`~momu.engine.scores.ROW` and comparison variants to ``(N, 2)``
     components; the F1 column gets both components (reducer ``f1``), BCS and BHS one each (``mean``).
+    ``ids``: the clips' identities (:func:`excerpt_ids`), recorded with every column.
     """
     row = np.asarray(by_variant[ROW], dtype=np.float64)
     cells = aggregate_beat_scores((row[:, 0] / 100.0).tolist(), (row[:, 1] / 100.0).tolist())
     scores.metrics.update({f"{prefix}_{k}": 100.0 * float(cells[k]) for k in BEAT_KEYS})
     for variant, comp in by_variant.items():
         comp = np.asarray(comp, dtype=np.float64)
-        scores.add_clips(f"{prefix}_f1", variant, comp)
-        scores.add_clips(f"{prefix}_bcs", variant, comp[:, :1])
-        scores.add_clips(f"{prefix}_bhs", variant, comp[:, 1:])
+        scores.add_clips(f"{prefix}_f1", variant, comp, ids=ids)
+        scores.add_clips(f"{prefix}_bcs", variant, comp[:, :1], ids=ids)
+        scores.add_clips(f"{prefix}_bhs", variant, comp[:, 1:], ids=ids)
 
 
 def beat_onset_f1(

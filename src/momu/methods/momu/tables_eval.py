@@ -30,6 +30,7 @@ from momu.methods.momu.scoring import (
     add_beat_scores,
     beat_components,
     derangement,
+    excerpt_ids,
     motion_onset_f1s,
     music_onset_f1s,
     replace_clip,
@@ -96,10 +97,10 @@ def _train_config(node: Any) -> TrainConfig:
     return TrainConfig(**params)
 
 
-def _add_onsets(scores: Scores, key: str, by_variant: dict[str, np.ndarray]) -> None:
+def _add_onsets(scores: Scores, key: str, by_variant: dict[str, np.ndarray], ids: list[str]) -> None:
     scores.metrics[key] = float(by_variant[ROW].mean())
     for variant, values in by_variant.items():
-        scores.add_clips(key, variant, values)
+        scores.add_clips(key, variant, values, ids=ids)
 
 
 # ---------------------------------------------------------------------------------------- motion→music
@@ -138,13 +139,14 @@ def evaluate_motion_to_music(
         gen = generate_music(ctx, model, truth, seed, ev.batch_size, other=ev.shuffled_condition)
         shuffled = _shuffled(truth)
         bins = float(ev.beat_bin_seconds)
+        ids = excerpt_ids(truth)
         with ctx.timed("metrics"):
             beats = {v: beat_components("music", clips, truth, bins) for v, clips in gen.items()}
             beats["shuffled"] = beat_components("music", shuffled, truth, bins)
-            add_beat_scores(scores, sid, beats)
+            add_beat_scores(scores, sid, beats, ids)
             onsets = {v: music_onset_f1s(clips, truth) for v, clips in gen.items()}
             onsets["shuffled"] = music_onset_f1s(shuffled, truth)
-            _add_onsets(scores, f"{sid}_onset_f1", onsets)
+            _add_onsets(scores, f"{sid}_onset_f1", onsets, ids)
         _plot(ctx, f"{sid}_beats", gen[ROW][0], figure=4)  # generated audio, clip 0's motion
     return scores
 
@@ -205,6 +207,7 @@ def evaluate_music_to_motion(
         )
         shuffled = _shuffled(truth)
         bins = float(ev.beat_bin_seconds)
+        ids = excerpt_ids(truth)
         if quality:
             extractor = _quality_extractor(sctx, dataset, data_key, ev)
             with ctx.timed("metrics"):
@@ -218,17 +221,17 @@ def evaluate_music_to_motion(
                     "ground truth": _kl_per_clip(extractor, others, truth),
                 }
                 for variant, values in kld.items():
-                    scores.add_clips(f"{sid}_mean_kld", variant, values)
+                    scores.add_clips(f"{sid}_mean_kld", variant, values, ids=ids)
             continue
         with ctx.timed("metrics"):
             beats = {v: beat_components("motion", clips, truth, bins) for v, clips in gen.items()}
             beats["shuffled"] = beat_components("motion", shuffled, truth, bins)
             beats["ground truth"] = beat_components("motion", truth, truth, bins)
-            add_beat_scores(scores, sid, beats)
+            add_beat_scores(scores, sid, beats, ids)
             onsets = {v: motion_onset_f1s(truth, clips) for v, clips in gen.items()}
             onsets["shuffled"] = motion_onset_f1s(truth, shuffled)
             onsets["ground truth"] = motion_onset_f1s(truth, truth)
-            _add_onsets(scores, f"{sid}_onset_f1", onsets)
+            _add_onsets(scores, f"{sid}_onset_f1", onsets, ids)
         _plot(ctx, f"{sid}_beats", gen[ROW][0], figure=5)  # generated motion, clip 0's music
     return scores
 
@@ -267,8 +270,9 @@ def calibrate_tables(
             continue
         which = "music" if kind == "music" else "motion"
         onset = music_onset_f1s if kind == "music" else (lambda g, r: motion_onset_f1s(r, g))
-        add_beat_scores(gt, sid, {ROW: beat_components(which, truth, truth, bins)})
-        add_beat_scores(shuf, sid, {ROW: beat_components(which, moved, truth, bins)})
+        ids = excerpt_ids(truth)
+        add_beat_scores(gt, sid, {ROW: beat_components(which, truth, truth, bins)}, ids)
+        add_beat_scores(shuf, sid, {ROW: beat_components(which, moved, truth, bins)}, ids)
         gt.metrics[f"{sid}_onset_f1"] = float(onset(truth, truth).mean())
         shuf.metrics[f"{sid}_onset_f1"] = float(onset(moved, truth).mean())
     return {"ground truth": gt, "ground truth, music and motion shuffled": shuf}

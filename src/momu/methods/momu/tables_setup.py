@@ -199,12 +199,16 @@ def _smoke_extra(subsets: Sequence[str]) -> list[str]:
     return extra
 
 
+PAPER_LENGTHS = ("25", "50")
+"""Suffixes of the Table 3–4 length subsets (``fe25`` … ``fs50``): the clip length in seconds."""
+
 _EXTRA_PRESETS: dict[str, Callable[[Sequence[str]], list[str]]] = {
     "smoke": _smoke_extra,
     "cpu": lambda subsets: [],
     # bare names replace the cpu-sized nodes of momu_tables.yaml, then every field is pinned: MotionBERT's
-    # DSTformer sizes (MoMu §5.1 "derived from [51]"), the denoisers' App. B.3 optimiser, and a DiT
-    # length that holds 50 s with concatenated positions (2 x 1562 + 1 = 3125)
+    # DSTformer sizes (MoMu §5.1 "derived from [51]"), the denoisers' App. B.3 optimiser, a DiT
+    # length that holds 50 s with concatenated positions (2 x 1562 + 1 = 3125), and Tables 3-4's
+    # 25-s and 50-s columns at their own lengths (momu_tables.yaml's 4 s / 8 s are the cpu stand-ins)
     "paper": lambda subsets: [
         "learnable_encoder=learnable_motion",
         "learnable_encoder={dim_feat: 256, dim_rep: 256, depth: 5, num_heads: 8, mlp_ratio: 4.0,"
@@ -213,6 +217,7 @@ _EXTRA_PRESETS: dict[str, Callable[[Sequence[str]], list[str]]] = {
         " lr_schedule: constant, weight_decay: 0.0}",
         "learnable_frames_per_latent=1",
         "method.music_backbone.max_length=3200",
+        *(f"subsets.{s}.seconds={float(s[-2:])}" for s in subsets if s[-2:] in PAPER_LENGTHS),
     ],
 }
 
