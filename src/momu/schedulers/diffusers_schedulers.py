@@ -9,7 +9,7 @@ that samplers and losses can ask for what they need:
 * :meth:`NoiseScheduler.predict_x0` — ẑ_0 = (z_t − √(1−ᾱ_t) ε) / √ᾱ_t (MoMu Alg. 2; the paper
   prints α_t where the DDPM identity needs ᾱ_t, which is used here);
 * :attr:`NoiseScheduler.prediction_type` — what a denoiser predicts: ``epsilon`` (the noise, both
-  papers) or ``sample`` (ẑ_0 itself, as MDM and EDGE do for motion); :meth:`NoiseScheduler.x0_of`,
+  papers), ``sample`` (ẑ_0 itself, as MDM and EDGE do for motion) or ``v_prediction``; :meth:`NoiseScheduler.x0_of`,
   :meth:`NoiseScheduler.eps_of` and :meth:`NoiseScheduler.target` translate, so losses and
   samplers work with either;
 * :meth:`NoiseScheduler.begin` — a fresh reverse-process run (its own copy of the diffusers
@@ -42,7 +42,7 @@ __all__ = [
 
 _BETA_SCHEDULES = ("linear", "scaled_linear", "squaredcos_cap_v2", "sigmoid")
 _SPACINGS = ("leading", "trailing", "linspace")
-PREDICTION_TYPES = ("epsilon", "sample")
+PREDICTION_TYPES = ("epsilon", "sample", "v_prediction")
 """What a denoiser may predict (diffusers' names)."""
 
 
@@ -62,8 +62,10 @@ class DDPMConfig:
             on, it keeps an imperfect ε-model from drifting at high noise levels).
         clip_sample_range: the clipping bound.
         prediction_type: what the denoiser predicts: ``epsilon`` (the noise; MoMu Eq. 6, MoFusion
-            Eq. 3) or ``sample`` (the clean ẑ_0: its loss weighs every noise level alike, so what
-            only the condition can tell — e.g. *when* a dancer steps — is learned at high noise).
+            Eq. 3), ``sample`` (the clean ẑ_0: its loss weighs every noise level alike, so what only
+            the condition can tell — e.g. *when* a dancer steps — is learned at high noise) or
+            ``v_prediction`` (the velocity √ᾱ ε − √(1−ᾱ) z_0: like ``sample`` at high noise, like
+            ``epsilon`` at low noise, where the fine detail is).
     """
 
     num_train_timesteps: int = 1000
@@ -209,16 +211,32 @@ class NoiseScheduler:
         return str(self.scheduler.config.prediction_type)
 
     def x0_of(self, x_t: Tensor, output: Tensor, t: Tensor) -> Tensor:
-        """ẑ_0 from a denoiser's output at ``t``, whatever it predicts."""
-        return output if self.prediction_type == "sample" else self.predict_x0(x_t, output, t)
+        """ẑ_0 from a denoiser's output at ``t``, whatever it predicts (v: ẑ_0 = √ᾱ z_t − √(1−ᾱ) v̂)."""
+        if self.prediction_type == "sample":
+            return output
+        if self.prediction_type == "v_prediction":
+            abar = self._abar(t, x_t)
+            return torch.sqrt(abar) * x_t - torch.sqrt(1.0 - abar) * output
+        return self.predict_x0(x_t, output, t)
 
     def eps_of(self, x_t: Tensor, output: Tensor, t: Tensor) -> Tensor:
-        """ε̂ from a denoiser's output at ``t``, whatever it predicts."""
-        return self.predict_eps(x_t, output, t) if self.prediction_type == "sample" else output
+        """ε̂ from a denoiser's output at ``t``, whatever it predicts (v: ε̂ = √(1−ᾱ) z_t + √ᾱ v̂)."""
+        if self.prediction_type == "sample":
+            return self.predict_eps(x_t, output, t)
+        if self.prediction_type == "v_prediction":
+            abar = self._abar(t, x_t)
+            return torch.sqrt(1.0 - abar) * x_t + torch.sqrt(abar) * output
+        return output
 
-    def target(self, x0: Tensor, noise: Tensor) -> Tensor:
-        """The training target of the denoiser's output: ``noise`` (epsilon) or ``x0`` (sample)."""
-        return x0 if self.prediction_type == "sample" else noise
+    def target(self, x0: Tensor, noise: Tensor, t: Tensor) -> Tensor:
+        """The training target of the denoiser's output at ``t``: ``noise`` (epsilon), ``x0`` (sample)
+        or the velocity v = √ᾱ ε − √(1−ᾱ) z_0 (v_prediction, Salimans & Ho 2022)."""
+        if self.prediction_type == "sample":
+            return x0
+        if self.prediction_type == "v_prediction":
+            abar = self._abar(t, x0)
+            return torch.sqrt(abar) * noise - torch.sqrt(1.0 - abar) * x0
+        return noise
 
     def sample_timesteps(
         self, batch: int, generator: torch.Generator | None = None, device: Any = None
