@@ -107,6 +107,9 @@ class MoMuConfig:
         motion_representation: what the motion VAE learns: ``positions`` (the papers' keypoints) or
             ``root_velocity`` (root-relative pose + the root's horizontal velocity, so a dancer can
             travel; :mod:`momu.features.root_motion`, 3D skeletons only).
+        rigid_bones: re-pose generated 3D motion on rigid bones (the training data's mean lengths)
+            by forward kinematics of the fitted bone directions (:func:`momu.export.rigid.rigid_motion`),
+            so the dancer's limbs keep their length; a generation setting, not part of any stage.
         bone_correction: apply MoMu App. E's bone-length correction to generated motion.
         bone_ratio: its threshold (bones longer than ``ratio ×`` the mean are shortened; 1.3).
         music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
@@ -137,6 +140,7 @@ class MoMuConfig:
     music_condition: Any = None
     condition_latents: bool = True
     motion_representation: str = "positions"
+    rigid_bones: bool = False
     bone_correction: bool = False
     bone_ratio: float = 1.3
     music_sampler: Any = None

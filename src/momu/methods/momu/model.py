@@ -244,6 +244,11 @@ class MoMuModel:
         out = self.vae.decode_motion(raw)[0].cpu().numpy()
         rep = np.asarray(self.norms.motion.inverse(out), dtype=np.float32)
         motion = np.asarray(self.conditions.motion_out(rep, self.rates.motion_fps), dtype=np.float32)
+        if self.cfg.rigid_bones and self.skeleton and get_skeleton(self.skeleton).dims == 3:
+            from momu.export.rigid import rigid_motion
+
+            lengths = self.bone_lengths if self.bone_lengths.size else None
+            motion = np.asarray(rigid_motion(motion, self.skeleton, lengths), dtype=np.float32)
         if self.cfg.bone_correction and self.bone_lengths.size:
             motion = np.asarray(
                 correct_bone_lengths(
