@@ -24,7 +24,7 @@ import pytest
 import soundfile as sf
 from scipy.interpolate import interp1d
 from scipy.ndimage import gaussian_filter1d
-from tests.helpers.shared_data import shared_data_dir
+from tests.helpers.shared_data import dance_with_melody_folders, shared_data_dir
 
 from momu.metrics import bas, harmony_from_beats, music_beats
 from momu.metrics.harmony import audio_beats, harmony, motion_beats_harmogan
@@ -51,18 +51,40 @@ def read_dance(folder: Path) -> tuple[np.ndarray, np.ndarray, int]:
 
 
 @pytest.fixture(scope="module")
-def dances() -> list[tuple[np.ndarray, np.ndarray, int]]:
-    return [read_dance(d) for d in sorted(DATA.iterdir()) if (d / "skeletons.json").is_file()]
+def names() -> list[str]:
+    """The dances of the folder (whatever version of the subset it holds), in the order of ``dances``."""
+    return [d.name for d in dance_with_melody_folders(DATA)]
 
 
-def test_real_pairs_give_finite_scores_in_range(dances: list[tuple[np.ndarray, np.ndarray, int]]) -> None:
-    for motion, audio, sr in dances:
+@pytest.fixture(scope="module")
+def dances(names: list[str]) -> list[tuple[np.ndarray, np.ndarray, int]]:
+    return [read_dance(DATA / name) for name in names]
+
+
+def test_real_pairs_give_finite_scores_in_range(
+    names: list[str], dances: list[tuple[np.ndarray, np.ndarray, int]]
+) -> None:
+    """Every dance: finite harmony in range, and its song's onset beats (HarmoGAN's librosa pipeline) at a
+    rate of dance music.
+
+    Onset beats per second, measured on the 23 dances: 1.2-6.0 in 22; DANCE_W_11 0.42, a legato song
+    whose first note (0.37 s in: the dance starts with the song) and one accent (8.7 s) stand 6.5x above
+    the 99th percentile of its onset envelope (1.4-3.4x in the other songs), so librosa's peak picking
+    on the max-normalised envelope (delta 0.07) keeps few onsets (0.80/s even without the first
+    second). Hence: above 0.3/s in every dance, above 1/s in at least 90 % of them.
+    """
+    rates = []
+    for name, (motion, audio, sr) in zip(names, dances, strict=True):
         ta, sa = audio_beats(audio, sr)
         tv, sv, j0 = motion_beats_harmogan(motion, FPS)
         r = harmony_from_beats(ta, sa, tv, sv, j0)
-        assert 1.0 < len(ta) / (len(audio) / sr) < 8.0  # onset beats per second of dance music
-        assert r.n_audio > 0 and r.n_visual > 0
-        assert np.isfinite(r.h) and 0.0 < r.h and 0.0 < r.hit_rate <= 1.0
+        rates.append(len(ta) / (len(audio) / sr))  # onset beats per second of dance music
+        assert 0.3 < rates[-1] < 8.0, (name, rates[-1])
+        assert r.n_audio > 0 and r.n_visual > 0, name
+        assert np.isfinite(r.h) and 0.0 < r.h and 0.0 < r.hit_rate <= 1.0, (name, r)
+    by_dance = {name: round(rate, 2) for name, rate in zip(names, rates, strict=True)}
+    logger.warning("onset beats per second: %s", by_dance)
+    assert np.mean(np.asarray(rates) > 1.0) >= 0.9, by_dance
     motion, audio, sr = dances[0]
     assert 0.0 < bas(to_60fps(motion), music_beats(audio, sr, recipe="mint")) <= 1.0
 
@@ -130,8 +152,9 @@ def test_harmony_depends_on_the_clip_length(dances: list[tuple[np.ndarray, np.nd
 
 @pytest.mark.xfail(
     strict=True,
-    reason="a property of this 8-dance subset, not of momu (benchmarks/dwm_alignment_study.py, "
-    "docs/metrics_beats.md 'Real-data calibration'): Bailando BAS GT 0.162 vs shuffled 0.166 (global "
+    reason="a property of the Dance with Melody data, not of momu: Bailando BAS GT 0.156 vs shuffled 0.160 "
+    "on the 23 dances. Measured on the first 8 (benchmarks/dwm_alignment_study.py, "
+    "docs/metrics_beats.md 'Real-data calibration'): GT 0.162 vs shuffled 0.166 (global "
     "positions 0.149 vs 0.151; mint variant 0.188 vs 0.187). The recorded offset ranks 89th-358th of 401 "
     "shifts over ±8 s: the motion runs 1.4-2.5 % faster than its song, so no single offset aligns a dance; "
     "with the time scale fitted and the best shift within ±1 beat for every pair alike, GT 0.215 vs 0.213 "
@@ -162,16 +185,23 @@ def bar_period(x: np.ndarray, fps: float, guess: float, horizon: float = 20.0) -
     return float(np.median(est))
 
 
-def test_motion_bar_period_matches_song_tempo(dances: list[tuple[np.ndarray, np.ndarray, int]]) -> None:
+def test_motion_bar_period_matches_song_tempo(
+    names: list[str], dances: list[tuple[np.ndarray, np.ndarray, int]]
+) -> None:
     """The 25-fps time base and the start_position/25 audio cut agree with the music's tempo.
 
-    The foot-speed bar period (3 beats for waltz, 4 otherwise) is within 0.97-1.01 of the song's bar in
-    every dance (measured 0.978-1.002); data at 24 or 30 fps read as 25 would give ~0.95 / ~1.2. On
-    average the motion runs slightly fast (the drift docs/metrics_beats.md "Real-data calibration" measures).
+    The foot-speed bar period (3 beats for waltz, 4 otherwise) over the song's bar, measured on the 23
+    dances: 0.977-1.005 in 21 (0.978-1.002 in the first 8); DANCE_W_8 0.967 and DANCE_W_16 1.056. In
+    those two the foot-speed spectrum peaks at the same ratio (0.963, 1.067; W_16 also at the beat:
+    0.940 motion beats per song beat), the song's beat period is the same in both halves (0.689-0.690 s)
+    and the skeletons have no repeated or dropped frames: the two recordings run 3.5 % faster / 6 %
+    slower than the songs they come with, a property of the data (docs/datasets.md). Data at 24 or 30 fps
+    read as 25 would give ~0.96 / ~1.2 in every dance. Hence: 0.97-1.01 in at least 90 % of the dances,
+    0.95-1.08 in every one. On average the motion runs slightly fast (mean 0.992; the drift
+    docs/metrics_beats.md "Real-data calibration" measures).
     """
-    names = [d.name for d in sorted(DATA.iterdir()) if (d / "skeletons.json").is_file()]
     ratios = []
-    for name, (motion, audio, sr) in zip(names, dances):
+    for name, (motion, audio, sr) in zip(names, dances, strict=True):
         env = librosa.onset.onset_strength(y=audio, sr=sr)
         _, frames = librosa.beat.beat_track(onset_envelope=env, sr=sr)
         beats = librosa.frames_to_time(frames, sr=sr)
@@ -180,5 +210,7 @@ def test_motion_bar_period_matches_song_tempo(dances: list[tuple[np.ndarray, np.
         per_bar = 3 if "_W_" in name else 4
         ratios.append(bar_period(gaussian_filter1d(feet, 1.0), FPS, per_bar * beat) / (per_bar * beat))
     logger.warning("Dance with Melody motion bar / song bar: %s", np.round(ratios, 4))
-    assert all(0.97 < r < 1.01 for r in ratios), ratios
+    by_dance = {name: round(ratio, 4) for name, ratio in zip(names, ratios, strict=True)}
+    assert all(0.95 < r < 1.08 for r in ratios), by_dance
+    assert np.mean([0.97 < r < 1.01 for r in ratios]) >= 0.9, by_dance
     assert np.mean(ratios) < 1.0

@@ -1,10 +1,14 @@
-"""Learned metrics on the real Dance-with-Melody subset (3D mocap, 21 joints, 25 fps, minutes-long dances)."""
+"""Learned metrics on the real Dance-with-Melody subset (3D mocap, 21 joints, 25 fps, minutes-long dances).
+
+Skipped where the subset is absent; its size is read from the folder (8 dances, then 23)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
+import pytest
+from tests.helpers.shared_data import DWM_STYLES, dance_with_melody_folders
 
 from momu.data.types import Clip
 from momu.encoders.dstformer import DSTformerConfig
@@ -13,11 +17,15 @@ from momu.registry import DATASETS, METRICS
 
 
 def test_motion_classifier_and_metrics_on_real_mocap(shared_data: Path, tmp_path: Path) -> None:
-    ds = DATASETS.build(
-        "dance_with_melody", {"root": str(shared_data / "dance_with_melody"), "load_audio": False}
-    )
+    root = shared_data / "dance_with_melody"
+    if not root.is_dir():
+        pytest.skip(f"{root} not found")
+    folders = dance_with_melody_folders(root)
+    ds = DATASETS.build("dance_with_melody", {"root": str(root), "load_audio": False})
     dances = [ds[i] for i in range(len(ds))]
-    assert {c.style for c in dances} == {"cha-cha", "rumba", "tango", "waltz"}
+    styles = sorted({DWM_STYLES[f.name.split("_")[1]] for f in folders})
+    assert len(styles) > 1, "the classifier needs two styles or more"
+    assert sorted({c.style for c in dances}) == styles
     cfg = MotionClassifierConfig(
         fps=12.5, window=25, hidden=16, dstformer=DSTformerConfig(dim_feat=8, dim_rep=4, depth=1, num_heads=2)
     )
@@ -30,9 +38,9 @@ def test_motion_classifier_and_metrics_on_real_mocap(shared_data: Path, tmp_path
         train=TrainConfig(epochs=1, samples_per_clip=2, val_fraction=0.0),
     )
     assert isinstance(ext, MotionExtractor)
-    assert summary["class_names"] == ["cha-cha", "rumba", "tango", "waltz"]
+    assert summary["class_names"] == styles
     feats = ext.clip_features(dances)  # whole dances: ~60-100 windows each
-    assert feats.shape == (8, 21 * 4) and np.all(np.isfinite(feats))
+    assert feats.shape == (len(folders), 21 * 4) and np.all(np.isfinite(feats))
 
     halves_a = [Clip(c.id, c.motion[: len(c.motion) // 2], c.fps) for c in dances]
     halves_b = [Clip(c.id, c.motion[len(c.motion) // 2 :], c.fps) for c in dances]

@@ -15,7 +15,7 @@ tango (T) and waltz (W).
 Audio: the dance occupies ``[start_position / 25, start_position / 25 + T / 25)`` seconds of the
 song; only that part is decoded and resampled to ``sample_rate``. The authors note that
 ``end_position - start_position`` is approximate: it differs from ``T`` by a few frames in most
-dances (6-19 frames in the public subset) and by 56 frames (2.24 s) in DANCE_T_5. A difference
+dances (1-27 frames in the 23 dances of ``shared/data``) and by 56 frames (2.24 s) in DANCE_T_5. A difference
 up to ``length_tolerance_frames`` is accepted, beyond it the item is an error. Where the song
 ends before the dance (by at most the tolerance), the motion is cut to the audio.
 
