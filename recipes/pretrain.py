@@ -1,11 +1,19 @@
 """Train, check and install the model shipped with momu (``nox -s pretrain``; non-default).
 
-    python recipes/pretrain.py [--work outputs/pretrain] [--skip-train] [--eval-seconds 15]
+    python recipes/pretrain.py [--work outputs/pretrain] [--skip-train] [--eval-seconds 15] [--seed 0]
+    python recipes/pretrain.py --data ../shared/data/dance_with_melody --work runs/dwm   # not installed
 
 1. ``momu train momu`` on ``synth_dance`` with the ``dwm21`` skeleton (3D, Dance with Melody's
-   21 joints, 25 fps) at the ``cpu`` preset, seed 0 — data anyone can regenerate and check against the
-   hashes in ``provenance.json``. The real Dance with Melody subset is research data for tests and
-   evaluation only, so it is not trained on (and never shipped).
+   21 joints, 25 fps) and its four ballroom styles at the ``cpu`` preset, seed 0 — data anyone can
+   regenerate and check against the hashes in ``provenance.json``. :data:`METHOD_OVERRIDES` make the
+   model follow its input (issue 32, docs/following.md): each direction is conditioned on the other
+   side's rhythm (``music_rhythm`` / ``motion_rhythm``: beat phase, tempo and onset envelope, features
+   that transfer across recordings), motion is learned as root velocity plus root-relative pose (so the
+   dance travels), the diffusion model predicts v (Salimans & Ho 2022; ε-prediction learned to ignore
+   the condition) and generated poses are re-posed on rigid bones. The real Dance with Melody subset
+   is research data for tests and evaluation only, so the shipped weights are not trained on it;
+   ``--data DIR`` trains the same model on a local copy (its train split) into ``--work`` and never
+   installs it.
 2. The model folder is copied to ``src/momu/pretrained/momu-dwm21/`` (safetensors + JSON) with its
    provenance, and ``index.json`` names it the default for both directions; the sampler is set to
    :data:`SHIPPED_SAMPLER` (fewer denoising steps than the cpu preset's 1000-step DDPM, so that a
@@ -31,17 +39,52 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "src" / "momu" / "pretrained"
 NAME = "momu-dwm21"
-TRAIN_OVERRIDES = ["dataset.skeleton=dwm21"]
-SHIPPED_SAMPLER = {
-    "name": "cfg",
-    "guidance_scale": 3.0,
-    "num_inference_steps": 50,
-    "scheduler": {"name": "ddim", "clip_sample": True, "clip_sample_range": 4.0},
+SYNTH_OVERRIDES = [
+    "dataset.skeleton=dwm21",
+    "dataset.styles=[waltz,rumba,cha_cha,quickstep]",
+    "dataset.trajectory_radius=4.0",
+]
+"""synth_dance as the shipped model sees it: Dance with Melody's skeleton, the four ballroom styles
+(tempi 60-160 BPM), dancers travelling on a 4 m floor."""
+METHOD_OVERRIDES = [
+    "method.motion_condition=music_rhythm",
+    "method.music_condition=motion_rhythm",
+    "method.condition_latents=false",
+    "method.motion_representation=root_velocity",
+    "method.scheduler.prediction_type=v_prediction",
+    "method.sampler.scheduler.prediction_type=v_prediction",
+    "method.rigid_bones=true",
+]
+"""The MoMu config changes that make the model follow its input (measured in issue 32)."""
+_SCHEDULER = {
+    "name": "ddpm",
+    "num_inference_steps": 100,
+    "timestep_spacing": "trailing",
+    "clip_sample": True,
+    "clip_sample_range": 4.0,
+    "prediction_type": "v_prediction",
 }
-"""The shipped model's music→motion and motion→music sampler (DDIM, 50 steps, MoMu §5.1)."""
+SHIPPED_SAMPLERS = {
+    "sampler": {"name": "cfg", "guidance_scale": 8.0, "scheduler": dict(_SCHEDULER)},
+    "motion_sampler": {"name": "cfg", "guidance_scale": 8.0, "scheduler": dict(_SCHEDULER)},
+    "music_sampler": {"name": "cfg", "guidance_scale": 5.0, "scheduler": dict(_SCHEDULER)},
+}
+"""The shipped samplers (ancestral DDPM, 100 trailing steps, CFG; MoMu Eq. 7): guidance 8 for
+music→motion and 5 for motion→music, chosen on the Dance with Melody *validation* split (at guidance 4
+the dance's tempo slope interval reached 0.16; DDIM with η = 0 gave the same dance for every song);
+100 steps keep a 3-minute song under a minute on 2 cores (benchmarks/bench_long_song.py)."""
 SEEDS = (0, 1, 2)
 
 log = logging.getLogger("pretrain")
+
+
+def _set_samplers(model: Path) -> None:
+    """Write :data:`SHIPPED_SAMPLERS` into the model folder's ``momu.json``."""
+    meta_path = model / "momu.json"
+    meta = json.loads(meta_path.read_text())
+    for key, node in SHIPPED_SAMPLERS.items():
+        meta["config"][key] = json.loads(json.dumps(node))
+    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
 
 
 def _install(model: Path) -> Path:
@@ -49,11 +92,7 @@ def _install(model: Path) -> Path:
     if dst.exists():
         shutil.rmtree(dst)
     shutil.copytree(model, dst)
-    meta_path = dst / "momu.json"
-    meta = json.loads(meta_path.read_text())
-    for key in ("sampler", "music_sampler", "motion_sampler"):
-        meta["config"][key] = dict(SHIPPED_SAMPLER)
-    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
+    _set_samplers(dst)
     (SHIPPED / "index.json").write_text(json.dumps({"dance": NAME, "music": NAME}, indent=2) + "\n")
     size = sum(p.stat().st_size for p in dst.rglob("*") if p.is_file())
     log.info("installed %s (%.1f MB)", dst, size / 1e6)
@@ -91,6 +130,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--work", type=Path, default=ROOT / "outputs" / "pretrain")
     p.add_argument("--skip-train", action="store_true", help="reuse the model already in --work")
     p.add_argument(
+        "--data",
+        default="synth",
+        help="'synth' (default; installed in the package) or a local Dance with Melody folder (trained "
+        "on its train split into --work; never installed)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="training seed (the shipped model: 0)")
+    p.add_argument(
         "--eval-seconds",
         type=float,
         default=15.0,
@@ -100,9 +146,17 @@ def main(argv: list[str] | None = None) -> int:
     from momu.training import find_model, train_method
 
     command = ["python", "recipes/pretrain.py", *(argv if argv is not None else sys.argv[1:])]
+    overrides = [*(SYNTH_OVERRIDES if args.data == "synth" else []), *METHOD_OVERRIDES]
     if not args.skip_train:
-        train_method("momu", args.work, preset="cpu", overrides=TRAIN_OVERRIDES, seed=0, command=command)
-    installed = _install(find_model(args.work))
+        train_method(
+            "momu", args.work, data=args.data, preset="cpu", overrides=overrides, seed=args.seed, command=command
+        )
+    model = find_model(args.work)
+    if args.data == "synth" and args.seed == 0:
+        installed = _install(model)
+    else:  # weights trained on research data (or another seed) stay in --work
+        installed = model
+        _set_samplers(model)
     result = evaluate(installed, args.eval_seconds)
     if result is not None:
         (installed / "evaluation.json").write_text(json.dumps(result, indent=2, default=str) + "\n")
