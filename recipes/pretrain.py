@@ -16,13 +16,14 @@
    installs it.
 2. The model folder is copied to ``src/momu/pretrained/momu-dwm21/`` (safetensors + JSON) with its
    provenance, and ``index.json`` names it the default for both directions; the sampler is set to
-   :data:`SHIPPED_SAMPLER` (fewer denoising steps than the cpu preset's 1000-step DDPM, so that a
+   :data:`SHIPPED_SAMPLERS` (100 denoising steps instead of the cpu preset's 1000, so that a
    3-minute song takes under a minute on 2 cores; ``momu generate --model`` with a folder trained at
    the preset keeps the preset's sampler).
 3. Where the real Dance with Melody songs are present (``../shared/data``), the music-following
-   benchmark (:mod:`momu.following`, docs/following.md: input sensitivity, tempo following, beat phase,
-   matched vs mismatched, realism, with calibration rows and 95 % intervals) on the validation split is
-   written to ``evaluation.json`` beside the model.
+   benchmark (``recipes/music_following.py``, docs/following.md: input sensitivity, tempo following,
+   beat phase, matched vs mismatched, realism, with calibration rows and 95 % intervals) on the
+   validation split, both directions, is written beside the model as ``evaluation.json`` and
+   ``evaluation.md``.
 """
 
 from __future__ import annotations
@@ -33,7 +34,6 @@ import logging
 import os
 import shutil
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,41 +87,45 @@ def _set_samplers(model: Path) -> None:
     meta_path.write_text(json.dumps(meta, indent=2) + "\n")
 
 
-def _install(model: Path) -> Path:
+def _install(model: Path, work: Path) -> Path:
+    """Copy ``model`` into the package with :data:`SHIPPED_SAMPLERS` and ``training_data.json`` (the
+    synth_dance config it was trained on, from ``work/config.yaml``: what tests compare it with)."""
+    from momu.config import load_config, to_container
+
     dst = SHIPPED / NAME
     if dst.exists():
         shutil.rmtree(dst)
     shutil.copytree(model, dst)
     _set_samplers(dst)
+    dataset = to_container(load_config(work / "config.yaml").dataset)
+    (dst / "training_data.json").write_text(json.dumps(dataset, indent=2) + "\n")
     (SHIPPED / "index.json").write_text(json.dumps({"dance": NAME, "music": NAME}, indent=2) + "\n")
     size = sum(p.stat().st_size for p in dst.rglob("*") if p.is_file())
     log.info("installed %s (%.1f MB)", dst, size / 1e6)
     return dst
 
 
-def evaluate(model_dir: Path, seconds: float) -> dict | None:
-    """The music-following benchmark (:mod:`momu.following`, docs/following.md) of the model in
-    ``model_dir``, both directions, on ``seconds`` of each song of the real Dance with Melody validation
-    split (the project's agreed split), seeds :data:`SEEDS`, with its calibration rows."""
-    from momu.following import dataset_node, from_model_dir, load_pairs, run_benchmark
+def evaluate(model_dir: Path, seconds: float, work: Path, generator: str) -> Path | None:
+    """The music-following benchmark (:mod:`momu.following`, docs/following.md) of ``generator``
+    (``shipped`` or the model folder), both directions, on ``seconds`` of each song of the real Dance
+    with Melody validation split (the project's agreed split), seeds :data:`SEEDS`, with its calibration
+    rows: ``recipes/music_following.py`` itself, its ``results.json`` copied to ``evaluation.json``
+    beside the model (and ``results.md`` to ``evaluation.md``)."""
+    from momu.following.run import main as benchmark
 
     shared = Path(os.environ.get("MOMU_SHARED_DATA") or ROOT.parent / "shared" / "data")
     root = shared / "dance_with_melody"
     if not root.is_dir():
         log.warning("real Dance with Melody songs not found: no held-out evaluation")
         return None
-    pairs = load_pairs(dataset_node(str(root), "val", "dwm21", seconds, 8), seconds, 8)
-    start = time.time()
-    result: dict = {"directions": {}}
-    for direction in ("dance", "music"):
-        gens = {NAME: from_model_dir(model_dir, direction)}
-        result["directions"][direction] = run_benchmark(
-            pairs, gens, direction=direction, seeds=SEEDS, controls=False
-        )
-    result["seconds_per_song"] = seconds
-    result["wall_time_s"] = round(time.time() - start, 1)
-    result["data"] = "Dance with Melody validation split (../shared/data): songs held out from training"
-    return result
+    out = work / "evaluation"
+    args = ["--generator", generator, "--direction", "both", "--data", str(root), "--split", "val"]
+    args += ["--songs", "8", "--seconds", f"{seconds:g}", "--seeds", *map(str, SEEDS), "--no-controls"]
+    if benchmark([*args, "--out", str(out)]) != 0:
+        raise SystemExit(2)
+    shutil.copyfile(out / "music_following" / "results.json", model_dir / "evaluation.json")
+    shutil.copyfile(out / "music_following" / "results.md", model_dir / "evaluation.md")
+    return model_dir / "evaluation.json"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -149,22 +153,24 @@ def main(argv: list[str] | None = None) -> int:
     overrides = [*(SYNTH_OVERRIDES if args.data == "synth" else []), *METHOD_OVERRIDES]
     if not args.skip_train:
         train_method(
-            "momu", args.work, data=args.data, preset="cpu", overrides=overrides, seed=args.seed, command=command
+            "momu",
+            args.work,
+            data=args.data,
+            preset="cpu",
+            overrides=overrides,
+            seed=args.seed,
+            command=command,
         )
     model = find_model(args.work)
     if args.data == "synth" and args.seed == 0:
-        installed = _install(model)
+        installed = _install(model, args.work)
     else:  # weights trained on research data (or another seed) stay in --work
         installed = model
         _set_samplers(model)
-    result = evaluate(installed, args.eval_seconds)
-    if result is not None:
-        (installed / "evaluation.json").write_text(json.dumps(result, indent=2, default=str) + "\n")
-        for direction, res in result["directions"].items():  # type: ignore[union-attr]
-            row = next(r for r in res["rows"] if r["kind"] == "generator")
-            log.info(
-                "%s: %s", direction, ", ".join(f"{t} {d.get('verdict')}" for t, d in row["tests"].items())
-            )
+    generator = "shipped" if installed != model else str(model)
+    written = evaluate(installed, args.eval_seconds, args.work, generator)
+    if written is not None:
+        log.info("held-out benchmark: %s", written)
     return 0
 
 
