@@ -32,6 +32,7 @@ import numpy as np
 
 from momu.config import ConfigError, build_component, load_config, save_config, to_container
 from momu.config.schema import RecipeConfig
+from momu.errors import one_line
 from momu.io import write_json
 
 __all__ = ["RECIPES", "TrainResult", "train_config", "train_method", "detect_dataset", "find_model"]
@@ -98,6 +99,16 @@ def train_config(
     return load_config(
         base, [*recipe.PRESETS[preset], *data_overrides, *overrides], schema=RecipeConfig, fill_defaults=False
     )
+
+
+def _build_method(cfg: Any) -> Any:
+    """The method of ``cfg``; a value its own checks reject is a ``ConfigError`` (one line, exit 2)."""
+    try:
+        return build_component(cfg.method, "methods")
+    except ConfigError:
+        raise
+    except ValueError as exc:
+        raise ConfigError(one_line(exc)) from None
 
 
 def _clip(ds: Any, index: int) -> Any:
@@ -186,6 +197,7 @@ def train_method(
     from momu.engine.provenance import git_commit, package_versions
 
     cfg = train_config(method, data=data, dataset=dataset, preset=preset, overrides=overrides)
+    _build_method(cfg)  # the method's own checks (check_config), before any data is read
     ds = open_dataset(cfg.dataset)
     (joints, dims), hashes = _check_clips(ds, cfg)
     shape = [f"method.encoder.num_joints={joints}", f"method.encoder.joint_dims={dims}"]
@@ -196,7 +208,7 @@ def train_method(
     start = time.time()
     accelerator = make_accelerator(RunConfig(tracker="none", seed=run_seed), out, f"train-{method}", {})
     ctx = RunContext(accelerator=accelerator, out_dir=out, resume=resume)
-    runner = build_component(cfg.method, "methods")
+    runner = _build_method(cfg)
     data_key = to_container(cfg.dataset)
     model = runner.fit(ctx, ds, data_key, run_seed)
     keys = runner.stage_keys(data_key, run_seed) if hasattr(runner, "stage_keys") else {"model": data_key}

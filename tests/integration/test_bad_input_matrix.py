@@ -325,6 +325,11 @@ CASES = [
     # momu train / momu extractor train: a bad option fails before anything is written
     Case("train-bad-dataset-option", _momu(*TRAIN_SMOKE, "dataset.num_clips=-3"), "num_clips"),
     Case("train-unknown-key", _momu(*TRAIN_SMOKE, "method.zz=1"), "method.zz"),
+    Case(  # a value the method's own check_config rejects (was a traceback, exit 1, --out made)
+        "train-bad-method-value",
+        _momu(*TRAIN_SMOKE, "method.scheduler.prediction_type=v_prediction"),
+        "method.sampler.scheduler.prediction_type",
+    ),
     Case("train-data-folder-missing", _momu(*TRAIN_SMOKE, "--data", "ROOT/nope"), "nope"),
     Case("extractor-bad-out-suffix", _momu(*EXTRACTOR, "--data", "synth", "--out", "ROOT/x.bin"), "--out"),
     Case(

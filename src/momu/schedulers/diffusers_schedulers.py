@@ -9,9 +9,9 @@ that samplers and losses can ask for what they need:
 * :meth:`NoiseScheduler.predict_x0` — ẑ_0 = (z_t − √(1−ᾱ_t) ε) / √ᾱ_t (MoMu Alg. 2; the paper
   prints α_t where the DDPM identity needs ᾱ_t, which is used here);
 * :attr:`NoiseScheduler.prediction_type` — what a denoiser predicts: ``epsilon`` (the noise, both
-  papers), ``sample`` (ẑ_0 itself, as MDM and EDGE do for motion) or ``v_prediction``; :meth:`NoiseScheduler.x0_of`,
-  :meth:`NoiseScheduler.eps_of` and :meth:`NoiseScheduler.target` translate, so losses and
-  samplers work with either;
+  papers), ``sample`` (ẑ_0 itself, as MDM and EDGE do for motion) or ``v_prediction``;
+  :meth:`NoiseScheduler.x0_of`, :meth:`NoiseScheduler.eps_of` and :meth:`NoiseScheduler.target`
+  translate, so losses and samplers work with any;
 * :meth:`NoiseScheduler.begin` — a fresh reverse-process run (its own copy of the diffusers
   scheduler, so two chains, as in cross-guidance, never share state) with ``timesteps`` and
   ``step`` (MoMu Eq. 8–9 for DDPM; DDIM for the 50-step sampling of MoMu §5.1).
@@ -92,7 +92,7 @@ class DDIMConfig:
         set_alpha_to_one: use ᾱ_prev = 1 at the final step (diffusers' default).
         clip_sample: clip ẑ_0 to ±``clip_sample_range`` in each step (see :class:`DDPMConfig`).
         clip_sample_range: the clipping bound.
-        prediction_type: ``epsilon`` or ``sample`` (see :class:`DDPMConfig`).
+        prediction_type: ``epsilon``, ``sample`` or ``v_prediction`` (see :class:`DDPMConfig`).
     """
 
     num_train_timesteps: int = 1000
@@ -144,8 +144,8 @@ class SamplingRun:
         x: Tensor,
         generator: torch.Generator | list[torch.Generator] | None = None,
     ) -> Tensor:
-        """z_{t−Δt} from z_t and the denoiser's output ``eps`` (the noise, or ẑ_0 for a ``sample``
-        predictor; both ``(B, T, C)``)."""
+        """z_{t−Δt} from z_t and the denoiser's output ``eps`` (the noise, ẑ_0 for a ``sample`` or v for
+        a ``v_prediction`` predictor; both ``(B, T, C)``)."""
         out = self.scheduler.step(eps, int(t), x, generator=generator, return_dict=True, **self._step_kwargs)
         return out.prev_sample
 
@@ -207,7 +207,7 @@ class NoiseScheduler:
 
     @property
     def prediction_type(self) -> str:
-        """What the denoiser predicts: ``epsilon`` or ``sample`` (:data:`PREDICTION_TYPES`)."""
+        """What the denoiser predicts: ``epsilon``, ``sample`` or ``v_prediction``."""
         return str(self.scheduler.config.prediction_type)
 
     def x0_of(self, x_t: Tensor, output: Tensor, t: Tensor) -> Tensor:

@@ -23,10 +23,11 @@ import torch
 
 from momu.config import build_component
 from momu.data.types import Clip
+from momu.errors import one_line
 from momu.features.root_motion import check_representation, from_root_velocity, to_root_velocity
 from momu.features.skeletons import SKELETON_NAMES, get_skeleton
 
-__all__ = ["Conditions", "world_positions"]
+__all__ = ["Conditions", "check_condition_parts", "world_positions"]
 
 
 def world_positions(clip: Clip) -> np.ndarray:
@@ -38,14 +39,26 @@ def world_positions(clip: Clip) -> np.ndarray:
 
 
 def _features_part(node: Any, name: str) -> Any:
+    """The condition-feature part of ``method.<name>`` (``None`` for ``null``); a ``ValueError`` naming
+    the key when it cannot be built or lacks the protocol (docs/protocols.md, "Condition features")."""
     if node is None:
         return None
-    part = build_component(node, "encoders")
+    try:
+        part = build_component(node, "encoders")
+    except (ValueError, LookupError, ImportError) as exc:  # bad params, unknown name, broken plugin
+        raise ValueError(f"method.{name}: {one_line(exc)}") from None
     if not (hasattr(part, "track") and hasattr(part, "out_channels")):
         raise ValueError(
             f"method.{name}: {type(part).__name__} has no track()/out_channels (docs/protocols.md)"
         )
     return part
+
+
+def check_condition_parts(cfg: Any) -> None:
+    """Build ``method.motion_condition`` and ``method.music_condition`` once, so that an unknown name,
+    a bad parameter or a part without the protocol fails with the key before anything is trained."""
+    for name in ("motion_condition", "music_condition"):
+        _features_part(getattr(cfg, name), name)
 
 
 @dataclass

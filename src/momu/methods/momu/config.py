@@ -208,8 +208,13 @@ def check_config(cfg: MoMuConfig) -> None:
             "(each denoiser needs some condition)"
         )
     from momu.features.root_motion import check_representation
+    from momu.methods.momu.conditions import check_condition_parts
 
-    check_representation(cfg.motion_representation)
+    try:
+        check_representation(cfg.motion_representation)
+    except ValueError as exc:
+        raise ValueError(f"method.motion_representation: {exc}") from None
+    check_condition_parts(cfg)
     _check_prediction_types(cfg)
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
@@ -223,9 +228,22 @@ def _prediction_type(node: Any) -> str:
 
 
 def _check_prediction_types(cfg: MoMuConfig) -> None:
-    """Every sampler's scheduler must read the denoisers' output as training defined it."""
+    """Every prediction type is known, and every sampler's scheduler reads the denoisers' output as
+    training defined it."""
+    from momu.schedulers.diffusers_schedulers import PREDICTION_TYPES
+
+    keys = ("scheduler", "sampler", "music_sampler", "motion_sampler", "joint_sampler")
+    for key in keys:
+        node = getattr(cfg, key)
+        kind = _prediction_type(node) if node is not None else "epsilon"
+        if kind not in PREDICTION_TYPES:
+            where = "scheduler" if key == "scheduler" else f"{key}.scheduler"
+            raise ValueError(
+                f"method.{where}.prediction_type: unknown prediction type {kind!r}; "
+                f"valid: {', '.join(PREDICTION_TYPES)}"
+            )
     trained = _prediction_type(cfg.scheduler)
-    for key in ("sampler", "music_sampler", "motion_sampler", "joint_sampler"):
+    for key in keys[1:]:
         node = getattr(cfg, key)
         if node is not None and _prediction_type(node) != trained:
             raise ValueError(
