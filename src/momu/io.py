@@ -23,6 +23,7 @@ __all__ = [
     "read_json",
     "check_output_dir",
     "check_output_file",
+    "probe_writable",
     "staged_dir",
     "FolderBusyError",
     "remove_stale_temporaries",
@@ -114,19 +115,41 @@ def _first_existing(path: Path) -> Path:
     return probe
 
 
+PROBE_PREFIX = ".momu-probe-"
+"""The name prefix of the file :func:`probe_writable` creates and removes."""
+
+
+def probe_writable(folder: Path) -> None:
+    """Create and remove a file in ``folder``; raises the ``OSError`` that creating it gave.
+
+    ``os.access`` cannot answer "may I write here": it is always true for root, also on a read-only
+    file system or in ``/proc``, so the only reliable check is to try.
+    """
+    fd, name = tempfile.mkstemp(prefix=PROBE_PREFIX, dir=folder)
+    os.close(fd)
+    os.unlink(name)
+
+
+def _probe_or_fail(path: Path, flag: str, folder: Path) -> None:
+    try:
+        probe_writable(folder)
+    except OSError as exc:
+        raise ValueError(f"{flag} {path}: cannot write in {folder} ({exc.strerror or exc})") from None
+
+
 def _check_creatable(path: Path, flag: str) -> None:
-    """``path`` does not exist yet: its nearest existing ancestor must be a writable folder."""
+    """``path`` does not exist yet: its nearest existing ancestor must be a folder that takes a new file."""
     ancestor = _first_existing(path.parent if path.parent != path else path)
     if not ancestor.is_dir():
         raise ValueError(f"{flag} {path}: cannot create it, {ancestor} is a file, not a folder")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ValueError(f"{flag} {path}: cannot create it, folder {ancestor} is not writable")
+    _probe_or_fail(path, flag, ancestor)
 
 
 def check_output_dir(path: str | Path, flag: str = "--out") -> Path:
     """Fail (``ValueError`` naming ``flag`` and ``path``) unless ``path`` is or can become a writable folder.
 
-    Checks only; creates nothing, so a command can check every output before doing any work.
+    Checks only; creates nothing that stays (a probe file is created and removed in the nearest
+    existing folder), so a command can check every output before doing any work.
     """
     path = Path(path)
     try:
@@ -135,8 +158,7 @@ def check_output_dir(path: str | Path, flag: str = "--out") -> Path:
         if path.exists():
             if not path.is_dir():
                 raise ValueError(f"{flag} {path}: exists and is a file, not a folder")
-            if not os.access(path, os.W_OK | os.X_OK):
-                raise ValueError(f"{flag} {path}: folder is not writable")
+            _probe_or_fail(path, flag, path)
             return path
         _check_creatable(path, flag)
     except OSError as exc:  # ELOOP, ENAMETOOLONG ...
@@ -153,8 +175,7 @@ def check_output_file(path: str | Path, flag: str = "--out") -> Path:
         if path.exists():
             if path.is_dir():
                 raise ValueError(f"{flag} {path}: is a folder; give a file name")
-            if not os.access(path.parent, os.W_OK | os.X_OK):
-                raise ValueError(f"{flag} {path}: folder {path.parent} is not writable")
+            _probe_or_fail(path, flag, path.parent)
             return path
         _check_creatable(path, flag)
     except OSError as exc:

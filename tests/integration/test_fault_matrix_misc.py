@@ -89,6 +89,10 @@ def _synth(*options: str) -> Callable[[Path, pytest.MonkeyPatch], list[str]]:
     return setup
 
 
+def _synth_into(out: str) -> Callable[[Path, pytest.MonkeyPatch], list[str]]:
+    return lambda tmp, mp: ["data", "synth", "--out", out, "--no-progress"]
+
+
 def _overwrite_on_a_failing_disk(tmp: Path, mp: pytest.MonkeyPatch) -> list[str]:
     """An existing dataset, to be replaced by one whose wavs the disk cannot take: it must stay."""
     write_dataset(tmp / "out", SynthConfig(num_clips=1, min_seconds=1.0, max_seconds=1.0))
@@ -143,6 +147,9 @@ CASES = {
         _synth("--clips", str(MAX_CLIPS), "--seconds", "3600", "--sample-rate", "192000"),  # 138 PB
         2,
         (f"--clips {MAX_CLIPS}", "GB free"),
+    ),
+    "data synth --out on a read-only file system": Case(  # os.access says yes to root
+        _synth_into("/proc/momu-synth"), 2, ("--out /proc/momu-synth: cannot write in /proc",)
     ),
     "data synth on a disk that fails while writing": Case(
         _overwrite_on_a_failing_disk,

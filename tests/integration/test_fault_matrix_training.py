@@ -336,6 +336,16 @@ def _bad_train(
     return argv
 
 
+def _train_out(out: Callable[[Path], str]) -> Callable[[Path], list[str]]:
+    """``momu train`` into the ``--out`` that ``out(tmp)`` names (checked before any work)."""
+    return lambda tmp: ["train", "momu", "--preset", "smoke", "--out", out(tmp)]
+
+
+def _table(*args: str) -> Callable[[Path], list[str]]:
+    """A table recipe (run in-process below), its arguments after ``--preset smoke --tracker none``."""
+    return lambda tmp: ["momu_table7", "--preset", "smoke", "--tracker", "none", *args]
+
+
 def _corrupt_dance(tmp: Path) -> list[str]:
     from tests.fixtures import layouts
 
@@ -366,7 +376,30 @@ BAD_INPUT = {
     "config-env-from-pieces": BadInput(_show(*PIECES), "real_data.root: resolves to text holding"),
     "config-env-create": BadInput(_show("real_data.root=${oc.create:'x'}"), "resolver 'oc.create'"),
     "config-resolver-name-built": BadInput(_show("real_data.root=${${seed}:HOME}"), "real_data.root"),
+    # --out: a probe file is created and removed (os.access says yes to root, also in /proc)
+    "train-out-on-a-read-only-file-system": BadInput(
+        _train_out(lambda tmp: "/proc/momu-out/o"), "--out /proc/momu-out/o: cannot write in /proc"
+    ),
+    "train-out-folder-name-too-long": BadInput(
+        _train_out(lambda tmp: str(tmp / ("x" * 300))), "folder name too long"
+    ),
+    "train-out-is-a-file": BadInput(
+        _train_out(lambda tmp: str(proc.RECIPES / "configs" / "momu.yaml")), "exists and is a file"
+    ),
+    "table-out-on-a-read-only-file-system": BadInput(
+        _table("--out", "/proc/momu-out"), "--out /proc/momu-out: cannot write in /proc"
+    ),
 }
+
+
+def _main(argv: list[str]) -> int:
+    """``momu ARGV``, or a table recipe (``momu_table7 ARGS``) run in-process as its script runs it."""
+    if argv[0] != "momu_table7":
+        return main(argv)
+    from momu.engine.table import run_table
+    from momu.methods.momu.recipes import table7_spec
+
+    return run_table(table7_spec(proc.RECIPES / "configs" / "momu.yaml"), argv[1:])
 
 
 def _bad_input_case(case: BadInput) -> Callable[[Path, Reference], None]:
@@ -375,7 +408,7 @@ def _bad_input_case(case: BadInput) -> Callable[[Path, Reference], None]:
         before = _snapshot(tmp)
         os.environ["MOMU_TEST_SECRET"] = SECRET
         try:
-            status = main(argv)
+            status = _main(argv)
         finally:
             del os.environ["MOMU_TEST_SECRET"]
         assert status == 2

@@ -19,12 +19,11 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import tempfile
 import time
 from pathlib import Path
 from types import TracebackType
 
-from momu.io import STALE_TEMPORARY_S
+from momu.io import STALE_TEMPORARY_S, probe_writable
 
 __all__ = [
     "OutputPathError",
@@ -90,11 +89,9 @@ def _check_names(path: Path, flag: str, folder: Path, ancestor: Path, is_file: b
 
 def _probe(path: Path, flag: str, ancestor: Path) -> None:
     try:
-        fd, name = tempfile.mkstemp(prefix=".momu-probe-", dir=ancestor)
+        probe_writable(ancestor)
     except OSError as exc:
         raise OutputPathError(f"{flag} {path}: cannot write in {ancestor} ({exc.strerror or exc})") from None
-    os.close(fd)
-    os.unlink(name)
 
 
 def check_writable_output(

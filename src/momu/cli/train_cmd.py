@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from momu.cli.output_paths import OutputPathError, check_writable_output
 from momu.config import ConfigError
 from momu.errors import fail, one_line
 
@@ -55,9 +56,10 @@ def run(args: argparse.Namespace) -> int:
     if bad:
         sys.stderr.write(f"momu train: error: overrides must be key=value, got {bad}\n")
         return 2
-    if args.out.exists() and not args.out.is_dir():
-        sys.stderr.write(f"momu train: error: --out {args.out} is a file\n")
-        return 2
+    try:  # a read-only file system, a name too long, a file in the way: before any work
+        check_writable_output(args.out, "--out")
+    except OutputPathError as exc:
+        return fail("momu train", exc)
     try:
         with stop_on_signals():
             result = train_method(
