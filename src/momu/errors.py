@@ -47,6 +47,7 @@ __all__ = [
     "UsageError",
     "UsageParser",
     "fail",
+    "stopped",
     "one_line",
     "launcher_pid",
 ]
@@ -132,6 +133,22 @@ def _repeat_after(pid: int, line: str, claim: Path) -> None:
         )
     except OSError:
         pass
+
+
+def stopped(line: str, status: int) -> int:
+    """Print ``line`` (why a command stopped: SIGTERM, Ctrl-C) on stderr and return ``status``.
+
+    Under ``accelerate launch`` the launcher turns the status into 1 and prints its own traceback
+    after it; the first rank to stop therefore also has the line repeated once the launcher has
+    exited (:mod:`momu.launch_epilogue`), as :func:`fail` does for a usage error.
+    """
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+    pid = launcher_pid()
+    claim = _claim(pid) if pid is not None else None
+    if pid is not None and claim is not None:
+        _repeat_after(pid, line, claim)
+    return status
 
 
 def fail(prog: str, message: object, status: int = EXIT_USAGE) -> int:

@@ -164,6 +164,50 @@ def table_sigterm_during_extractor_training_checkpoints_it(tmp: Path, ref: Refer
     assert checkpoint.parent.name.startswith("extractor-") and is_complete(checkpoint)
 
 
+def launch_sigterm_to_the_trainer_ends_with_its_one_line(tmp: Path, ref: Reference) -> None:
+    """Under ``accelerate launch`` the launcher turns the trainer's 143 into 1 and prints a
+    ``CalledProcessError`` traceback after the trainer's line; the line is repeated last."""
+    import signal
+    import subprocess
+
+    import psutil
+    from tests.helpers.launch import LAUNCHER, accelerate_launch
+
+    if not LAUNCHER.exists():
+        pytest.skip("accelerate's launcher is not installed")
+    out = tmp / "out"
+    argv = accelerate_launch(
+        proc.RECIPES / "momu_table7.py", "--preset", "smoke", "--rows", "1", "--tracker", "none",
+        "--out", str(out), "method.evaluation.extractor_epochs=5000",
+    )  # fmt: skip
+    launcher = subprocess.Popen(
+        argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while not any(out.glob("momu_shared/parts/.locks/extractor-*.lock")):
+            if launcher.poll() is not None:
+                raise AssertionError(f"ended before the signal: {launcher.communicate()[1][-3000:]}")
+            assert time.monotonic() < deadline, "the extractors never started"
+            time.sleep(0.05)
+        time.sleep(8.0)  # inside the extractor's training steps
+        (trainer,) = [
+            c for c in psutil.Process(launcher.pid).children() if "momu_table7" in " ".join(c.cmdline())
+        ]
+        trainer.send_signal(signal.SIGTERM)
+        _, err = launcher.communicate(timeout=300)  # also waits for the epilogue (it holds stderr)
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+            launcher.wait()
+    assert launcher.returncode == 1  # the launcher's, whatever the child's
+    assert "CalledProcessError" in err and "returned non-zero exit status 143" in err, err[-3000:]
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("momu_table7: stopped by SIGTERM; checkpoint written to "), err[-3000:]
+    assert err.count(last) == 2  # printed when it stopped, and again after the traceback
+    assert is_complete(Path(last.split("checkpoint written to ", 1)[1].split(";", 1)[0]))
+
+
 # ----------------------------------------------------------------------------- in-process cases
 
 
@@ -323,6 +367,47 @@ def job_progress_has_an_eta_from_the_first_steps(tmp: Path, ref: Reference) -> N
     progress.close()
 
 
+_STEPPING_WORKER = """
+import sys, time
+from momu.engine.table_workers import serve_units
+
+def run(unit, progress):
+    progress.planned = 30
+    for step in range(1, 31):
+        time.sleep(0.1)
+        progress.stage_step("diffusion", step, 30)
+    progress.stage_done("diffusion", 30, "trained")
+
+sys.exit(serve_units(run, {"#1", "#2"}))
+"""
+
+
+def jobs_parent_has_an_eta_from_the_first_steps(tmp: Path, ref: Reference) -> None:
+    """``--jobs 2``: the parent's one progress line follows both workers' steps and has an ETA long
+    before the first unit ends (it used to log an ETA only as units finished)."""
+    from momu.engine.progress import JobProgress
+    from momu.engine.table_units import Unit
+    from momu.engine.table_workers import run_units_in_workers
+
+    seen: list[tuple[int, float | None, str]] = []
+
+    class Watched(JobProgress):
+        def unit_steps(self, label: str, steps_done: int, planned: int, stage: str) -> None:
+            super().unit_steps(label, steps_done, planned, stage)
+            seen.append((self.done, self.eta(), self._stage_text()))
+
+    script = tmp / "worker.py"
+    script.write_text(_STEPPING_WORKER)
+    progress = Watched("t", units=2, enabled=False)
+    units = [Unit("#1", 0), Unit("#2", 0)]
+    assert run_units_in_workers(str(script), [], units, 2, 1, tmp / "logs", "t", progress) == []
+    progress.close()
+    early = [(eta, text) for done, eta, text in seen if done == 0 and eta is not None]
+    assert early, seen  # an ETA while no unit had finished
+    assert any("row #1 seed 0: diffusion" in text and "row #2 seed 0: diffusion" in text for _, text in early)
+    assert progress.done == 2 and progress.eta() == 0.0
+
+
 # ----------------------------------------------------------------------------- bad input: one line, 2
 
 
@@ -424,6 +509,7 @@ CASES: dict[str, Callable[[Path, Reference], None]] = {
     "sigterm-checkpoints-then-resume-continues": sigterm_checkpoints_then_resume_continues,
     "ctrl-c-one-line-130": ctrl_c_is_one_line_and_status_130,
     "table-sigterm-during-extractor-training": table_sigterm_during_extractor_training_checkpoints_it,
+    "launch-sigterm-one-line-last": launch_sigterm_to_the_trainer_ends_with_its_one_line,
     "diffusion-removed-from-the-cache": diffusion_stage_removed_from_the_cache_retrains_identically,
     "checkpoint-settings-keep-stage-folders": checkpoint_settings_keep_every_stage_folder,
     "corrupt-same-size-checkpoint": corrupt_same_size_checkpoint_is_skipped_for_the_last_good_one,
@@ -431,6 +517,7 @@ CASES: dict[str, Callable[[Path, Reference], None]] = {
     "stage-seeding-ignores-history": stage_weights_do_not_depend_on_what_ran_before,
     "extractor-resume-bit-identical": extractor_training_resumes_bit_identically,
     "job-progress-eta-from-the-start": job_progress_has_an_eta_from_the_first_steps,
+    "jobs-parent-progress-eta-from-the-start": jobs_parent_has_an_eta_from_the_first_steps,
     **{name: _bad_input_case(case) for name, case in BAD_INPUT.items()},
 }
 

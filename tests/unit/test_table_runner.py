@@ -278,7 +278,7 @@ def test_a_worker_sends_each_units_output_to_its_log_and_stops_at_a_failure(tmp_
     script.write_text(
         "import sys\n"
         "from momu.engine.table_workers import serve_units\n"
-        "def run(unit):\n"
+        "def run(unit, progress):\n"
         "    print('stdout of', unit.token)\n"
         "    sys.stderr.write(f'stderr of {unit.token}\\n')\n"
         "    if unit.seed == 1:\n"

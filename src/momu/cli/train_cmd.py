@@ -20,7 +20,7 @@ from typing import Any
 
 from momu.cli.output_paths import OutputPathError, check_writable_output
 from momu.config import ConfigError
-from momu.errors import fail, one_line
+from momu.errors import fail, one_line, stopped
 
 __all__ = ["add_parser", "run"]
 
@@ -75,7 +75,6 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, FileNotFoundError, ResumeError) as exc:
         return fail("momu train", exc)
     except Interrupted as exc:
-        sys.stderr.write(f"momu train: {one_line(exc)}\n")
-        return exc.status
+        return stopped(f"momu train: {one_line(exc)}", exc.status)
     sys.stdout.write(f"{result.model}\n")
     return 0

@@ -45,7 +45,7 @@ from safetensors.torch import load_file
 from torch import nn
 from torch.utils.data import Dataset
 
-from momu.engine.progress import JobProgress
+from momu.engine.progress import StageProgress
 from momu.engine.provenance import git_commit
 from momu.engine.trainer import (
     WEIGHT_NEUTRAL_FIELDS,
@@ -141,7 +141,7 @@ class RunContext:
     timings: dict[str, dict[str, float]] = field(default_factory=dict)  # category -> wall_s, cpu_s, calls
     parts_root: Path | None = None  # a stage cache shared by several tables of one output folder
     derived: OrderedDict[str, Any] = field(default_factory=OrderedDict, repr=False)  # see remember()
-    progress: JobProgress | None = None  # the table run's progress line: told every stage's steps
+    progress: StageProgress | None = None  # the table run's progress line: told every stage's steps
 
     @contextmanager
     def timed(self, category: str) -> Iterator[None]:

@@ -13,17 +13,23 @@ ETA for the whole job from the first unit's first steps on:
   units``, and the ETA is the time spent in units so far scaled to the rest. Until a unit has
   finished, evaluation time is not in the estimate (it enters with the first finished unit); a
   config with no step-counted training shows its ETA after its first unit.
+
+With ``--jobs N`` several units run at once in worker processes: each worker reports its unit's steps
+to the parent (:class:`momu.engine.table_workers.UnitReporter`), whose one bar follows them all
+(:meth:`JobProgress.unit_steps`); the fraction done adds every running unit's part, and the time is
+the wall time during which some unit was running, so the ETA holds for one process and for ``N``.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Protocol
 
 from tqdm.auto import tqdm
 
-__all__ = ["JobProgress", "planned_steps"]
+__all__ = ["JobProgress", "StageProgress", "planned_steps"]
 
 _REFRESH_S = 1.0
 
@@ -47,6 +53,28 @@ def _duration(seconds: float) -> str:
     return format_duration(seconds)
 
 
+class StageProgress(Protocol):
+    """What :class:`~momu.engine.context.RunContext` tells about its stages (``ctx.progress``)."""
+
+    def stage_step(self, name: str, step: int, steps: int) -> None: ...
+
+    def stage_done(self, name: str, steps: int, how: str) -> None: ...
+
+
+@dataclass
+class _RunningUnit:
+    """A unit in progress: its planned steps, the steps of its finished stages and of the current one."""
+
+    start: float
+    planned: int = 0
+    finished_steps: int = 0
+    current: int = 0
+    stage: str = ""
+
+    def fraction(self) -> float:
+        return min(1.0, (self.finished_steps + self.current) / self.planned) if self.planned > 0 else 0.0
+
+
 class JobProgress:
     """One bar for a table run (see the module docstring); disabled off the main process."""
 
@@ -61,54 +89,73 @@ class JobProgress:
             dynamic_ncols=True,
             bar_format="{desc}: {n_fmt}/{total_fmt} units [{elapsed}]{postfix}",
         )
-        self._in_units = 0.0  # seconds spent in finished units
-        self._unit_start: float | None = None
-        self._planned = 0
-        self._finished_steps = 0  # steps of this unit's stages already trained or reused
-        self._current = 0  # steps of the stage in training
-        self._stage = ""
+        self._busy = 0.0  # seconds during which some unit was running, up to _busy_since
+        self._busy_since: float | None = None
+        self._running: dict[str, _RunningUnit] = {}
+        self._latest = ""  # the unit stage_step / stage_done / finish_unit talk about
         self._last = 0.0
 
     def start_unit(self, label: str, planned: int) -> None:
-        """A unit begins; ``planned`` is its optimizer steps (:func:`planned_steps`, 0: unknown)."""
-        self._unit_start = time.monotonic()
-        self._planned, self._finished_steps, self._current = planned, 0, 0
-        self._stage = label
+        """Unit ``label`` begins; ``planned`` is its optimizer steps (:func:`planned_steps`, 0: unknown)."""
+        now = time.monotonic()
+        if not self._running:
+            self._busy_since = now
+        self._running[label] = _RunningUnit(start=now, planned=planned, stage=label)
+        self._latest = label
         self._refresh(force=True)
 
     def stage_step(self, name: str, step: int, steps: int) -> None:
-        """Stage ``name`` of the current unit is at ``step`` of ``steps``."""
-        self._stage = f"{name} {step}/{steps}"
-        self._current = step
+        """Stage ``name`` of the latest unit is at ``step`` of ``steps``."""
+        unit = self._running.get(self._latest)
+        if unit is not None:
+            unit.stage, unit.current = f"{name} {step}/{steps}", step
         self._refresh()
 
     def stage_done(self, name: str, steps: int, how: str) -> None:
-        """Stage ``name`` (``steps`` steps) was trained or reused (``how``)."""
-        self._finished_steps += steps
-        self._current = 0
-        self._stage = f"{name} {how}"
+        """Stage ``name`` (``steps`` steps) of the latest unit was trained or reused (``how``)."""
+        unit = self._running.get(self._latest)
+        if unit is not None:
+            unit.finished_steps += steps
+            unit.current = 0
+            unit.stage = f"{name} {how}"
         self._refresh(force=True)
 
-    def finish_unit(self) -> None:
-        if self._unit_start is not None:
-            self._in_units += time.monotonic() - self._unit_start
-        self._unit_start = None
+    def unit_steps(self, label: str, steps_done: int, planned: int, stage: str) -> None:
+        """A ``--jobs`` worker's report on unit ``label``: ``steps_done`` of ``planned``, now ``stage``."""
+        unit = self._running.get(label)
+        if unit is None:
+            return
+        unit.planned, unit.finished_steps, unit.current, unit.stage = planned, steps_done, 0, stage
+        self._refresh()
+
+    def finish_unit(self, label: str | None = None) -> None:
+        """Unit ``label`` (default: the latest) has ended."""
+        self._running.pop(self._latest if label is None else label, None)
+        if not self._running and self._busy_since is not None:
+            self._busy += time.monotonic() - self._busy_since
+            self._busy_since = None
         self.done += 1
-        self._stage = ""
         self.bar.update(1)
         self._refresh(force=True)
 
     def eta(self) -> float | None:
         """Seconds left for the whole job, or ``None`` while nothing measurable is done."""
-        fraction = float(self.done)
-        spent = self._in_units
-        if self._unit_start is not None:
-            spent += time.monotonic() - self._unit_start
-            if self._planned > 0:
-                fraction += min(1.0, (self._finished_steps + self._current) / self._planned)
+        fraction = self.done + sum(unit.fraction() for unit in self._running.values())
+        spent = self._busy
+        if self._busy_since is not None:
+            spent += time.monotonic() - self._busy_since
         if fraction <= 0 or spent <= 0:
             return None
         return spent / fraction * (self.units - fraction)
+
+    def _stage_text(self) -> str:
+        if len(self._running) == 1:
+            return next(iter(self._running.values())).stage
+        texts = [
+            label if unit.stage == label else f"{label}: {unit.stage}"
+            for label, unit in self._running.items()
+        ]
+        return "; ".join(texts)
 
     def _refresh(self, force: bool = False) -> None:
         now = time.monotonic()
@@ -116,7 +163,7 @@ class JobProgress:
             return
         self._last = now
         eta = self.eta()
-        parts = [p for p in (self._stage, f"ETA {_duration(eta)}" if eta is not None else "") if p]
+        parts = [p for p in (self._stage_text(), f"ETA {_duration(eta)}" if eta is not None else "") if p]
         self.bar.set_postfix_str(" | ".join(parts), refresh=True)
 
     def close(self) -> None:

@@ -53,8 +53,8 @@ from momu.engine.table_units import (
     format_duration,
     merge_timings,
 )
-from momu.engine.table_workers import run_units_in_workers, serve_units
-from momu.errors import EXIT_PROBLEMS, UsageParser, fail, one_line
+from momu.engine.table_workers import run_units_in_workers, serve_table_units, unit_label
+from momu.errors import EXIT_PROBLEMS, UsageParser, fail, one_line, stopped
 from momu.io import atomic_write_text, write_json
 
 __all__ = ["Column", "Row", "PaperRow", "TableSpec", "TableArgs", "run_table", "parse_table_args"]
@@ -394,9 +394,8 @@ def run_table(spec: TableSpec, argv: Sequence[str] | None = None) -> int:
     try:  # log lines go above the progress bars instead of through them
         with stop_on_signals(), logging_redirect_tqdm():
             return _run_table(spec, argv)
-    except Interrupted as exc:
-        sys.stderr.write(f"{spec.name}: {one_line(exc)}\n")
-        return exc.status
+    except Interrupted as exc:  # one line, repeated after accelerate launch's own report
+        return stopped(f"{spec.name}: {one_line(exc)}", exc.status)
     except ResumeError as exc:  # --resume found checkpoints, none intact
         return fail(spec.name, exc)
     except KeyboardInterrupt:  # before the handlers were installed
@@ -433,9 +432,7 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
         accelerator=accelerator, out_dir=out, resume=args.resume, parts_root=shared_parts_root(spec, args.out)
     )
     if args.worker:  # a --jobs worker: each unit the parent sends, evaluated into its cell
-        status = serve_units(
-            lambda u: evaluate_unit(spec.evaluate, ctx, configs[u.row], u, reuse=args.resume), configs
-        )
+        status = serve_table_units(spec.evaluate, ctx, configs, reuse=args.resume)
         finish_accelerator(accelerator)
         return status
     units = _units(spec, configs, seeds)
@@ -443,9 +440,13 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
     if args.jobs > 1:
         todo = [u for u in units if not (args.resume and cell_path(out, u, configs[u.row]).is_file())]
         script = str(Path(sys.argv[0]).resolve())
-        failed = run_units_in_workers(
-            script, sys.argv[1:], todo, args.jobs, threads or 1, out / "logs", spec.name
-        )
+        job = JobProgress(spec.name, len(todo), enabled=accelerator.is_main_process)
+        try:
+            failed = run_units_in_workers(
+                script, sys.argv[1:], todo, args.jobs, threads or 1, out / "logs", spec.name, job
+            )
+        finally:
+            job.close()
         if failed:
             finish_accelerator(accelerator)
             units_text = ", ".join(f"{u.row} seed {u.seed}" for u in failed)
@@ -469,7 +470,7 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
             for seed in seeds:
                 unit = Unit(row.id, seed)
                 log.info("%s: row %s (%s), seed %d", spec.name, row.id, row.name, seed)
-                progress.start_unit(f"row {row.id} seed {seed}", planned_steps(to_container(cfg)))
+                progress.start_unit(unit_label(unit), planned_steps(to_container(cfg)))
                 scores, trained, unit_timings = evaluate_unit(spec.evaluate, ctx, cfg, unit, reuse=reuse)
                 progress.finish_unit()
                 per_seed.append(scores)
