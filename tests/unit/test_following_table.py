@@ -65,7 +65,9 @@ def _direction(direction: str, offset: float, model: str) -> dict[str, Any]:
         "rows": [gt, shuffled, gen],
         "ground_truth_passes": [t for t, v in zip(TESTS, GT_RAW) if v == "passes"],
         "reference_realism": (
-            {"foot_speed": {"p5": 0.2, "p95": 0.5, "median": 0.3, "windows": 9}} if direction == "dance" else {}
+            {"foot_speed": {"p5": 0.2, "p95": 0.5, "median": 0.3, "windows": 9}}
+            if direction == "dance"
+            else {}
         ),
     }
 
@@ -74,10 +76,20 @@ def _results(model: str, offset: float, skeleton: str = "dwm21", directions=("da
     return {
         "benchmark": "music_following",
         "data": "synth_dance (val split)",
-        "settings": {"generator": f"/models/{model}", "split": "val", "songs": 3, "seconds": 10.0, "seeds": "0 1"},
+        "settings": {
+            "generator": f"/models/{model}",
+            "split": "val",
+            "songs": 3,
+            "seconds": 10.0,
+            "seeds": "0 1",
+        },
         "dataset": {"name": "synth_dance", "skeleton": skeleton, "split": "val"},
         "directions": {d: _direction(d, offset + k, model) for k, d in enumerate(directions)},
-        "provenance": {"command": ["python", "recipes/music_following.py"], "git_commit": "abc", "wall_time_s": 12.5},
+        "provenance": {
+            "command": ["python", "recipes/music_following.py"],
+            "git_commit": "abc",
+            "wall_time_s": 12.5,
+        },
     }
 
 
@@ -90,16 +102,23 @@ def _md_row(md: str, label: str, direction: str) -> list[str]:
 
 
 def test_every_cell_is_the_runs_own_gated_verdict_and_interval():
-    table = collect([("a.json", _results("momu:m1", 0.2)), ("b.json", _results("mofusion:m2", 0.5, "smpl24"))])
+    table = collect(
+        [("a.json", _results("momu:m1", 0.2)), ("b.json", _results("mofusion:m2", 0.5, "smpl24"))]
+    )
     md = markdown(table)
     header = _md_row(md, "model", "direction")
     columns = {t: header.index(SHORT_TITLES[t]) for t in TESTS}
     checked = 0
-    for name, res in (("momu:m1", _results("momu:m1", 0.2)), ("mofusion:m2", _results("mofusion:m2", 0.5, "smpl24"))):
+    for name, res in (
+        ("momu:m1", _results("momu:m1", 0.2)),
+        ("mofusion:m2", _results("mofusion:m2", 0.5, "smpl24")),
+    ):
         for direction, title in (("dance", "music → dance"), ("music", "dance → music")):
             src = next(r for r in res["directions"][direction]["rows"] if r["id"] == name)
             group = next(
-                g for g in table["groups"] if g["direction"] == direction and any(r["id"] == name for r in g["rows"])
+                g
+                for g in table["groups"]
+                if g["direction"] == direction and any(r["id"] == name for r in g["rows"])
             )
             row = next(r for r in group["rows"] if r["id"] == name)
             cells = _md_row(md, name, title)
@@ -113,7 +132,9 @@ def test_every_cell_is_the_runs_own_gated_verdict_and_interval():
                     want["verdict"],
                 ), (name, direction, t)
                 text = cells[columns[t]]
-                assert text.startswith(f"{want['estimate']:.3f} [{want['low']:.3f}, {want['high']:.3f}]"), text
+                assert text.startswith(f"{want['estimate']:.3f} [{want['low']:.3f}, {want['high']:.3f}]"), (
+                    text
+                )
                 assert text.endswith(f"{want['verdict']}*") or text.endswith(f"{want['verdict']}**"), text
                 assert "raw-" not in text
                 checked += 1
@@ -121,7 +142,10 @@ def test_every_cell_is_the_runs_own_gated_verdict_and_interval():
 
 
 def test_ground_truth_row_and_the_tests_it_passes_head_each_data_and_direction():
-    same_data = [("a.json", _results("momu:m1", 0.2)), ("c.json", _results("harmogan:m3", 0.7, directions=("dance",)))]
+    same_data = [
+        ("a.json", _results("momu:m1", 0.2)),
+        ("c.json", _results("harmogan:m3", 0.7, directions=("dance",))),
+    ]
     table = collect([*same_data, ("b.json", _results("mofusion:m2", 0.5, "smpl24", ("dance",)))])
     # the two dwm21 runs share one group per direction; the smpl24 run has its own
     kinds = [(g["direction"], [r["label"] for r in g["rows"]]) for g in table["groups"]]
@@ -156,7 +180,11 @@ def test_labels_rename_generator_rows(tmp_path: Path):
         (None, [], "file not found"),
         ("{not json", [], "not readable JSON"),
         ('{"benchmark": "momu_table7"}', [], "not a results.json of recipes/music_following.py"),
-        ('{"benchmark": "music_following", "directions": {"dance": {"rows": []}}}', [], "no ground_truth row"),
+        (
+            '{"benchmark": "music_following", "directions": {"dance": {"rows": []}}}',
+            [],
+            "no ground_truth row",
+        ),
         (json.dumps(_results("momu:m1", 0.2)), ["--label", "momu:m1"], "expected ROW_ID=NAME"),
     ],
 )

@@ -121,7 +121,8 @@ def _direction_md(res: Mapping[str, Any]) -> list[str]:
             for c, st in r["controls"].items():
                 lines.append(
                     f"| {r['id']} | {c} | {format_cell(st.get('differs'), 3, False)} | "
-                    f"{format_cell(st.get('energy'), 3, False)} | {format_cell(st.get('tempo_match'), 2, False)} |"
+                    f"{format_cell(st.get('energy'), 3, False)} | "
+                    f"{format_cell(st.get('tempo_match'), 2, False)} |"
                 )
         lines.append("")
     return lines

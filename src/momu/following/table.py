@@ -130,7 +130,12 @@ def collect(
             for r in res["rows"]:
                 if r.get("kind") == "generator":
                     groups[key]["rows"].append(_row(r, labels.get(r["id"], r["id"]), "generator", name))
-    return {"table": "which_models_follow", "tests": list(TESTS), "groups": list(groups.values()), "runs": runs}
+    return {
+        "table": "which_models_follow",
+        "tests": list(TESTS),
+        "groups": list(groups.values()),
+        "runs": runs,
+    }
 
 
 def _row(row: Mapping[str, Any], label: str, kind: str, source: str) -> dict[str, Any]:
@@ -178,23 +183,27 @@ def markdown(table: Mapping[str, Any]) -> str:
             "## Realism (music → dance)",
             "",
             "Passes = inside the real data's 5th–95th percentile over every excerpt-long window of the "
-            "benchmark songs' dances (bone-length variation: up to that 95th percentile or 1 %).",
+            "benchmark songs' dances (bone-length variation: up to that 95th percentile or 1 %). A 2-D "
+            "skeleton (openpose14) is in pixels: px/s, and no root travel.",
             "",
             "| model | data | " + " | ".join(REALISM_TITLES.values()) + " |",
             "|---" * (len(REALISM_KEYS) + 2) + "|",
         ]
         for g in dance:
             ref = g["reference_realism"]
-            real = [
-                f"{ref[k]['p5']:.3f} – {ref[k]['p95']:.3f}" if k in ref else "—" for k in REALISM_KEYS
-            ]
+            real = [f"{ref[k]['p5']:.3f} – {ref[k]['p95']:.3f}" if k in ref else "—" for k in REALISM_KEYS]
             lines.append(f"| *real 5th–95th pct* | {g['data']} | " + " | ".join(real) + " |")
             for r in g["rows"]:
                 if r["kind"] == "generator":
                     cells = [format_cell(r.get("realism", {}).get(k)) for k in REALISM_KEYS]
                     lines.append(f"| {r['label']} | {g['data']} | " + " | ".join(cells) + " |")
         lines.append("")
-    lines += ["## Runs", "", "| source | generator | data | commit | wall time (s) |", "|---|---|---|---|---|"]
+    lines += [
+        "## Runs",
+        "",
+        "| source | generator | data | commit | wall time (s) |",
+        "|---|---|---|---|---|",
+    ]
     for run in table["runs"]:
         commit = str(run.get("git_commit") or "?")[:12]
         lines.append(
