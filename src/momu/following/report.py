@@ -16,7 +16,7 @@ from momu.following.checks import TESTS
 from momu.following.realism import REALISM_KEYS
 from momu.io import atomic_write_text, write_json
 
-__all__ = ["write_results", "markdown"]
+__all__ = ["write_results", "markdown", "format_cell", "TEST_TITLES", "DIRECTION_TITLES"]
 
 TEST_TITLES = {
     "input_sensitivity": "input sensitivity (½ = as much as seeds)",
@@ -30,7 +30,8 @@ TEST_TITLES = {
 DIRECTION_TITLES = {"dance": "music → dance", "music": "dance → music"}
 
 
-def _cell(d: Mapping[str, Any] | None, digits: int = 3, verdict: bool = True) -> str:
+def format_cell(d: Mapping[str, Any] | None, digits: int = 3, verdict: bool = True) -> str:
+    """``estimate [low, high] **verdict**`` of a stored test or statistic (``—`` when absent)."""
     if not d:
         return "—"
     if "estimate" not in d:
@@ -60,8 +61,8 @@ def _direction_md(res: Mapping[str, Any]) -> list[str]:
     lines.append("|---" * (len(TESTS) + 2) + "|")
     for r in rows:
         share = r["tests"]["tempo_following"].get("share_within_5pct")
-        cells = [_cell(r["tests"][t]) for t in TESTS]
-        lines.append(f"| {r['id']} | " + " | ".join(cells) + f" | {_cell(share, 2, False)} |")
+        cells = [format_cell(r["tests"][t]) for t in TESTS]
+        lines.append(f"| {r['id']} | " + " | ".join(cells) + f" | {format_cell(share, 2, False)} |")
     lines.append("")
     wrong = []
     for r in rows:
@@ -81,7 +82,7 @@ def _direction_md(res: Mapping[str, Any]) -> list[str]:
     lines.append("|---|---|---|")
     for r in rows:
         bas = r["bas"]
-        cells = [_cell(bas.get(v), 3, False) for v in ("bailando", "mint")]
+        cells = [format_cell(bas.get(v), 3, False) for v in ("bailando", "mint")]
         lines.append(f"| {r['id']} | " + " | ".join(cells) + " |")
     lines.append("")
     if res.get("reference_realism"):
@@ -103,7 +104,7 @@ def _direction_md(res: Mapping[str, Any]) -> list[str]:
         )
         for r in rows:
             lines.append(
-                f"| {r['id']} | " + " | ".join(_cell(r.get("realism", {}).get(k)) for k in keys) + " |"
+                f"| {r['id']} | " + " | ".join(format_cell(r.get("realism", {}).get(k)) for k in keys) + " |"
             )
         lines.append("")
     ctl = [r for r in rows if r.get("controls")]
@@ -119,8 +120,9 @@ def _direction_md(res: Mapping[str, Any]) -> list[str]:
         for r in ctl:
             for c, st in r["controls"].items():
                 lines.append(
-                    f"| {r['id']} | {c} | {_cell(st.get('differs'), 3, False)} | "
-                    f"{_cell(st.get('energy'), 3, False)} | {_cell(st.get('tempo_match'), 2, False)} |"
+                    f"| {r['id']} | {c} | {format_cell(st.get('differs'), 3, False)} | "
+                    f"{format_cell(st.get('energy'), 3, False)} | "
+                    f"{format_cell(st.get('tempo_match'), 2, False)} |"
                 )
         lines.append("")
     return lines
