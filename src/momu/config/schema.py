@@ -20,6 +20,7 @@ __all__ = [
     "LengthsConfig",
     "DanceDataConfig",
     "BallroomConfig",
+    "FollowingConfig",
 ]
 
 
@@ -80,6 +81,26 @@ class BallroomConfig:
 
 
 @dataclass
+class FollowingConfig:
+    """``following``: the music-following benchmark a table scores its rows with (``recipes/mixing.py``;
+    docs/following.md).
+
+    Attributes:
+        split: the dataset split the songs come from.
+        songs: the first ``songs`` clips of ``split`` (by id).
+        seconds: excerpt length (s); excerpts start 2 s in when the clip is long enough.
+        generation_seeds: the seeds every song is answered with (input sensitivity needs 2).
+        factors: tempo factors of the stretched inputs (tempo following).
+    """
+
+    split: str = "val"
+    songs: int = 12
+    seconds: float = 5.0
+    generation_seeds: list[int] = field(default_factory=lambda: [0, 1])
+    factors: list[float] = field(default_factory=lambda: [0.8, 0.9, 1.1, 1.25])
+
+
+@dataclass
 class RecipeConfig:
     """Top-level keys of a recipe config (``recipes/configs/momu.yaml``, ``momu_tables.yaml``).
 
@@ -95,6 +116,7 @@ class RecipeConfig:
         dance, ballroom: HarmoGAN's data (:class:`DanceDataConfig`, :class:`BallroomConfig`).
         calibration_row, fig11_perturbations: set by HarmoGAN's calibration rows and Fig. 11's rows
             (:mod:`momu.methods.harmogan.evaluate`).
+        following: the music-following benchmark of the mixing table (:class:`FollowingConfig`).
     """
 
     seed: int = 0
@@ -111,3 +133,4 @@ class RecipeConfig:
     ballroom: Optional[BallroomConfig] = None  # noqa: UP045
     calibration_row: Optional[str] = None  # noqa: UP045
     fig11_perturbations: Any = None
+    following: Optional[FollowingConfig] = None  # noqa: UP045

@@ -8,20 +8,27 @@ librosa's ``feature.mfcc`` (:func:`momu.features.audio.mfcc`) to float tolerance
 
 Set ``frame_rate`` to the motion frame rate (e.g. 25 fps for Dance with Melody) so that MFCC frame
 ``t`` lines up with motion frame ``t``.
+
+As another method's condition features (docs/protocols.md, "Condition features"):
+:meth:`MfccEncoder.track` computes the MFCCs of a whole song once (numpy, librosa), and
+:meth:`MfccTrack.features` cuts any span of it at any frame rate (each output frame the mean of the
+MFCC frames it covers) — so MoMu can condition its music→motion denoiser on HarmoGAN's audio features
+(``method.motion_condition: {name: mfcc, normalize: true}``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from torch import nn
 
-from momu.features.audio import MfccConfig
+from momu.features.audio import MfccConfig, mfcc
 from momu.features.audio_torch import Mfcc
 from momu.registry import ENCODERS
 
-__all__ = ["MfccEncoderConfig", "MfccEncoder", "build_mfcc"]
+__all__ = ["MfccEncoderConfig", "MfccEncoder", "MfccTrack", "build_mfcc"]
 
 
 @dataclass
@@ -77,6 +84,36 @@ class MfccEncoder(nn.Module):
     def encode(self, waveform: torch.Tensor) -> torch.Tensor:
         """Alias of :meth:`forward`."""
         return self(waveform)
+
+    def track(self, audio: np.ndarray, sample_rate: float) -> MfccTrack:
+        """The MFCCs of a whole mono waveform (standardised per coefficient over it with ``normalize``)."""
+        coeffs = mfcc(np.asarray(audio, dtype=np.float32).reshape(-1), sample_rate, self.cfg).T  # (T, C)
+        coeffs = coeffs.astype(np.float64)
+        if self.cfg.normalize:
+            coeffs = (coeffs - coeffs.mean(axis=0)) / np.maximum(coeffs.std(axis=0), 1e-5)
+        return MfccTrack(coeffs, float(self.frame_rate))
+
+
+@dataclass(frozen=True)
+class MfccTrack:
+    """A song's MFCCs ``(T, n_mfcc)`` at ``rate`` frames/s; :meth:`features` cuts any span."""
+
+    coeffs: np.ndarray
+    rate: float
+
+    def features(self, frames: int, frame_rate: float, start: float = 0.0) -> np.ndarray:
+        """``(frames, n_mfcc)``: each output frame from ``start`` seconds the mean of the MFCC frames it
+        covers (at least one; frames past the song's end repeat its last frame)."""
+        n = self.coeffs.shape[0]
+        out = np.zeros((frames, self.coeffs.shape[1]), dtype=np.float32)
+        if n == 0:
+            return out
+        edges = np.round((start + np.arange(frames + 1) / frame_rate) * self.rate).astype(int)
+        edges = np.clip(edges, 0, n - 1)
+        for k in range(frames):
+            a, b = edges[k], max(edges[k + 1], edges[k] + 1)
+            out[k] = self.coeffs[a:b].mean(axis=0)
+        return out
 
 
 @ENCODERS.register("mfcc", config=MfccEncoderConfig)

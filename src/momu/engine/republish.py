@@ -31,13 +31,15 @@ from pathlib import Path
 from typing import Any
 
 from momu.engine.table_report import (
+    BASELINE_HEADING,
+    baseline_lines,
     cells_caption,
     ordering_lines,
     pairwise_lines,
     render_markdown,
     verdict_lines,
 )
-from momu.engine.table_results import columns_from_json, compare_row, orderings
+from momu.engine.table_results import columns_from_json, compare_row, orderings, versus_baseline
 from momu.errors import UsageParser, fail
 from momu.io import atomic_write_text, write_json
 
@@ -55,7 +57,11 @@ def recompute(result: dict[str, Any], bootstrap_seed: int = 0) -> dict[str, Any]
     columns = columns_from_json(result)
     seed = int(result.get("bootstrap_seed", bootstrap_seed))
     rows = [{**row, "comparisons": compare_row(row, columns, bootstrap_seed=seed)} for row in result["rows"]]
-    return {**result, "rows": rows, "orderings": orderings(rows, columns, bootstrap_seed=seed)}
+    out = {**result, "rows": rows, "orderings": orderings(rows, columns, bootstrap_seed=seed)}
+    if "versus_baseline" in result:
+        base = str(result["versus_baseline"]["row"])
+        out["versus_baseline"] = versus_baseline(rows, columns, base, bootstrap_seed=seed)
+    return out
 
 
 def _section_span(lines: Sequence[str], heading: str) -> tuple[int, int] | None:
@@ -109,6 +115,7 @@ def _readme(text: str, result: dict[str, Any]) -> str:
     caption = cells_caption(result)
     text = re.sub(r"^Cells: .*$", lambda _: caption, text, count=1, flags=re.M)
     text = replace_section(text, VERDICTS, _generated(verdict_lines(result)))
+    text = replace_section(text, BASELINE_HEADING, _generated(baseline_lines(result)), after=VERDICTS)
     return replace_section(text, ORDERING, _generated(ordering_lines(result)), after=VERDICTS)
 
 

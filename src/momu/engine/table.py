@@ -45,7 +45,7 @@ from momu.engine.scores import Scores, as_scores
 from momu.engine.signals import Interrupted, exit_status, stop_on_signals
 from momu.engine.state import ResumeError
 from momu.engine.table_report import render_markdown
-from momu.engine.table_results import compare_row, orderings, summarise_seeds
+from momu.engine.table_results import compare_row, orderings, summarise_seeds, versus_baseline
 from momu.engine.table_units import (
     Unit,
     cell_path,
@@ -158,6 +158,8 @@ class TableSpec:
         default_seeds: ``preset -> seeds`` used without ``--seeds`` (committed reproductions use 3;
             a preset not listed uses the config's ``seed``).
         bootstrap_seed: seed of the comparisons' bootstrap (results are reproducible).
+        baseline: a row id every other row is compared with, column by column
+            (:func:`~momu.engine.table_results.versus_baseline`; results.json ``versus_baseline``).
         check: ``check(row_configs)`` raises :class:`~momu.config.ConfigError` or ``ValueError`` when
             the data cannot serve the table (a split too small, a skeleton the method cannot take);
             called once before any tracker, folder or training.
@@ -179,6 +181,7 @@ class TableSpec:
     shared_parts: str | None = None
     default_seeds: Mapping[str, Sequence[int]] = field(default_factory=lambda: dict(DEFAULT_SEEDS))
     bootstrap_seed: int = 0
+    baseline: str | None = None
 
 
 def _csv(text: str) -> list[str]:
@@ -510,6 +513,15 @@ def _run_table(spec: TableSpec, argv: Sequence[str] | None) -> int:
         "calibration": _calibration_result(calibration),
         "baselines": [{"name": b.name, "paper": dict(b.paper), "re_run": False} for b in spec.baselines],
         "orderings": orderings(rows_out, spec.columns, bootstrap_seed=spec.bootstrap_seed),
+        **(
+            {
+                "versus_baseline": versus_baseline(
+                    rows_out, spec.columns, spec.baseline, bootstrap_seed=spec.bootstrap_seed
+                )
+            }
+            if spec.baseline is not None and any(r["id"] == spec.baseline for r in rows_out)
+            else {}
+        ),
         "provenance": {
             "git_commit": git_commit(),
             "versions": package_versions(),

@@ -21,6 +21,8 @@ __all__ = [
     "verdict_lines",
     "ordering_lines",
     "pairwise_lines",
+    "baseline_lines",
+    "BASELINE_HEADING",
     "another_scale",
     "cells_caption",
     "size_line",
@@ -135,6 +137,42 @@ def verdict_lines(result: Mapping[str, Any]) -> list[str]:
     variants = sorted({v for r in result["rows"] for d in r.get("comparisons", {}).values() for v in d})
     legend = [f"*{v}*: {VARIANTS[v].label}" for v in variants if v in VARIANTS]
     return ["", "## Verdicts", "", intro, "Comparisons: " + "; ".join(legend) + ".", "", *lines]
+
+
+BASELINE_HEADING = "Against the baseline row"
+_BASELINE_WORDS = {
+    "better": "better than",
+    "worse": "worse than",
+    "not distinguishable": "not distinguishable from",
+}
+
+
+def baseline_lines(result: Mapping[str, Any]) -> list[str]:
+    """Per column, every row against the baseline row (``versus_baseline``) with its interval and verdict."""
+    versus = result.get("versus_baseline")
+    if not versus:
+        return []
+    base = versus["row"]
+    names = {r["id"]: r["name"] for r in result["rows"]}
+    lines = ["", f"## {BASELINE_HEADING}", ""]
+    for col in result["columns"]:
+        recs = versus["columns"].get(col["key"], [])
+        if not recs:
+            continue
+        lines.append(f"- {col['label']}:")
+        for rec in recs:
+            if rec["verdict"] == CANNOT_TELL:
+                said = f"cannot tell against {base}"
+            else:
+                said = f"{_BASELINE_WORDS.get(rec['verdict'], rec['verdict'])} {base}"
+            lines.append(f"  - {rec['row']} ({names.get(rec['row'], '')}): {said} ({_interval_text(rec)})")
+    lines += [
+        "",
+        f"Differences are row − {base}, paired on the same clips (songs) where both rows were scored on "
+        "them and pooled over the training seeds by the clip bootstrap, else per seed (FID); each "
+        "record's pairing and per-seed differences are in results.json (`versus_baseline`). " + RULE,
+    ]
+    return lines
 
 
 def _pair_line(pair: Mapping[str, Any], higher_is_better: bool) -> str:
@@ -312,6 +350,7 @@ def render_markdown(result: Mapping[str, Any], notes: Sequence[str] = ()) -> str
         "motion shuffled across clips: they show what *good* and *chance* are on this data.",
         *_paper_table(result),
         *verdict_lines(result),
+        *baseline_lines(result),
         *ordering_lines(result),
         *stale_stage_lines(result),
     ]

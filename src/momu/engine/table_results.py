@@ -37,6 +37,7 @@ __all__ = [
     "summarise_seeds",
     "compare_row",
     "orderings",
+    "versus_baseline",
     "outcome_phrase",
     "REFERENCE_VARIANTS",
 ]
@@ -332,3 +333,44 @@ def _pair_interval(
         return None
     interval = paired_seed_interval(sa, sb)  # type: ignore[arg-type]
     return interval, [float(x - y) for x, y in zip(sa, sb)], how  # type: ignore[operator]
+
+
+def versus_baseline(
+    rows: Sequence[Mapping[str, Any]],
+    columns: Sequence[ColumnLike],
+    baseline: str,
+    *,
+    bootstrap_seed: int = 0,
+) -> dict[str, Any]:
+    """Every other row against the ``baseline`` row, per column: ``row − baseline`` with its interval.
+
+    Paired as :func:`orderings` pairs rows (per clip where both were scored on the same clips, else
+    per seed) and judged by the same rule (:func:`~momu.engine.statistics.judge`): ``verdict`` is
+    ``better`` / ``worse`` in the column's direction, ``not distinguishable`` or ``cannot tell``.
+    Columns with ``closer_to`` are skipped (their "better" needs the reference per pair).
+
+    Returns:
+        ``{"row": baseline, "columns": {key: [record per other row]}}``; each record holds ``row``,
+        the interval, ``verdict``, ``reason``, ``per_seed``, ``seeds_agreeing`` and ``pairing``.
+
+    Raises:
+        ValueError: ``baseline`` is not one of ``rows``.
+    """
+    base = next((r for r in rows if r["id"] == baseline), None)
+    if base is None:
+        raise ValueError(f"versus_baseline: no row {baseline!r} among {[r['id'] for r in rows]}")
+    out: dict[str, list[dict[str, Any]]] = {}
+    for col in columns:
+        if col.closer_to:
+            continue
+        for row in rows:
+            if row["id"] == baseline or col.key not in row["metrics"] or col.key not in base["metrics"]:
+                continue
+            found = _pair_interval(row, base, col, bootstrap_seed)
+            if found is None:
+                continue
+            interval, diffs, pairing = found
+            out.setdefault(col.key, []).append(
+                {"row": row["id"], **_record(interval, col.higher_is_better, diffs), "pairing": pairing}
+            )
+    return {"row": baseline, "columns": out}

@@ -33,7 +33,8 @@ the mean over items.
 Using it in another method: any model whose training step produces joint positions ``(B, T, J, D)``
 for a clip of known music can add ``weight · harmony_loss(motion, fps, targets)`` to its loss — e.g.
 a diffusion method on the decoded ``x̂₀`` of each noisy sample (docs/papers/harmogan.md, "The
-harmony loss in other methods").
+harmony loss in other methods"). :meth:`HarmonyLoss.decoded_loss` is that use
+(:mod:`momu.losses.decoded`; MoMu's ``method.diffusion_losses``).
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from momu.losses.decoded import DecodedMotion
 from momu.metrics.harmony import audio_beats, combine_harmony, salient_audio_beats
 from momu.registry import LOSSES
 
@@ -99,6 +101,12 @@ class AudioTargets:
 
     times: np.ndarray
     saliency: np.ndarray
+
+    def window(self, start: float, seconds: float) -> AudioTargets:
+        """The beats in ``[start, start + seconds)``, their times from ``start`` (a training window of
+        a clip whose beats were found over the whole clip; saliencies keep the clip's normalisation)."""
+        keep = (self.times >= start) & (self.times < start + seconds)
+        return AudioTargets(self.times[keep] - start, self.saliency[keep])
 
 
 def audio_targets(
@@ -217,13 +225,42 @@ class HarmonyLoss(nn.Module):
         audio_mask: torch.Tensor,
     ) -> torch.Tensor:
         """Mean over the batch of the per-item loss (``form``, ``normalize``)."""
+        return self.per_item(motion, fps, audio_times, audio_saliency, audio_mask).mean()
+
+    def per_item(
+        self,
+        motion: torch.Tensor,
+        fps: float,
+        audio_times: torch.Tensor,
+        audio_saliency: torch.Tensor,
+        audio_mask: torch.Tensor,
+    ) -> torch.Tensor:
+        """The loss of each item ``(B,)`` (``form``, ``normalize``)."""
         t = harmony_terms(motion, fps, audio_times, audio_saliency, audio_mask, self.cfg)
         if self.cfg.form == "h":
-            return -t["h"].mean()
+            return -t["h"]
         loss = -t["h_s"] + (t["n_visual"] - t["n_audio"]).abs()
         if self.cfg.normalize:
             loss = loss / t["n_audio"].clamp_min(1.0)
-        return loss.mean()
+        return loss
+
+    # ------------------------------------------------------------ on another model's decoded x̂₀
+    schedules_itself = False
+    """:class:`~momu.losses.decoded.DecodedMotionLoss`: the caller weights the value by ᾱ_t."""
+    needs_music_beats = True
+
+    def decoded_loss(self, d: DecodedMotion) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """The per-item loss of decoded joint positions against each item's salient music beats
+        (:mod:`momu.losses.decoded`; ``d.music_beats`` from :func:`audio_targets` of the item's
+        music, cut to its frames by :meth:`AudioTargets.window`)."""
+        if d.music_beats is None:
+            raise ValueError("harmony: the decoded batch carries no music beats (music_beats)")
+        times, saliency, mask = d.music_beats
+        if d.mask is not None:  # beats past an item's last valid frame are not its music
+            frames = d.mask.to(times.dtype).sum(dim=1, keepdim=True)
+            mask = mask & (times < frames / float(d.fps))
+        value = self.per_item(d.pred, d.fps, times, saliency, mask)
+        return value, {"harmony": value.detach().mean()}
 
 
 @LOSSES.register("harmony", config=HarmonyLossConfig)

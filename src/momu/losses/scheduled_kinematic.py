@@ -30,6 +30,11 @@ sequence works (``unet1d``, ``dit``, plugins).
 Switches: ``use_s`` / ``use_a`` / ``use_m`` (MoFusion supp. Table 1's rows), and ``schedule``:
 ``alpha_bar`` (Eq. 4), ``constant`` (``λ_k = constant_weight`` at every t: the naïve variant the
 paper calls unstable) or ``none`` (no kinematic term: ``L_t = L_da``).
+
+On another model's poses (:meth:`ScheduledKinematicLoss.decoded_loss`, :mod:`momu.losses.decoded`):
+a latent diffusion model (MoMu) decodes its x̂₀ to joint positions and adds ``λ_k^(t) L_k`` of them,
+the same terms and schedule (``L_m`` between the pose vectors of the decoded x̂₀ and of the decoded
+clean latent).
 """
 
 from __future__ import annotations
@@ -41,8 +46,9 @@ import torch
 from torch import Tensor, nn
 
 from momu.features.bones import bone_lengths
-from momu.features.mofusion_pose import decode_pose, mirror_bone_pairs, pose_channels
+from momu.features.mofusion_pose import decode_pose, encode_pose, mirror_bone_pairs, pose_channels
 from momu.features.skeletons import get_skeleton
+from momu.losses.decoded import DecodedMotion
 from momu.losses.diffusion import DiffusionLoss, DiffusionLossOutput
 from momu.registry import LOSSES
 from momu.samplers.base import Backbone, resolve_scheduler
@@ -191,16 +197,58 @@ class ScheduledKinematicLoss(nn.Module):
     def terms(self, out: DiffusionLossOutput, x0: Tensor, x_mask: Tensor | None) -> KinematicTerms:
         """L_s, L_a, L_m per sample for the data term's output ``out`` and the clean ``x0``."""
         pred = self.positions(out.x0_pred)
+        return self.pose_terms(pred, self.raw(out.x0_pred), self.raw(x0), out.t, x_mask)
+
+    def pose_terms(
+        self, pred: Tensor, pred_pose: Tensor, target_pose: Tensor, t: Tensor, mask: Tensor | None
+    ) -> KinematicTerms:
+        """L_s, L_a (on ``pred (B, T, J, 3)`` positions), L_m (``pred_pose`` against ``target_pose``,
+        ``(B, T, 3J)`` pose vectors in metres) per sample, and λ_k^(t) of ``t``."""
         zero = pred.new_zeros(pred.shape[0])
-        ls = skeleton_consistency(pred, self.skeleton.bones, x_mask) if self.cfg.use_s else zero
-        la = symmetry(pred, self.skeleton.bones, self.pairs, x_mask) if self.cfg.use_a else zero
+        ls = skeleton_consistency(pred, self.skeleton.bones, mask) if self.cfg.use_s else zero
+        la = symmetry(pred, self.skeleton.bones, self.pairs, mask) if self.cfg.use_a else zero
         if self.cfg.use_m:
-            err = ((self.raw(out.x0_pred) - self.raw(x0)) ** 2).mean(dim=-1)  # (B, T)
-            m = _valid(x_mask, err.shape[0], err.shape[1], err.device).to(err.dtype)
+            err = ((pred_pose - target_pose) ** 2).mean(dim=-1)  # (B, T)
+            m = _valid(mask, err.shape[0], err.shape[1], err.device).to(err.dtype)
             lm = (err * m).sum(dim=1) / m.sum(dim=1).clamp_min(1.0)
         else:
             lm = zero
-        return KinematicTerms(ls, la, lm, self.weight(out.t, pred))
+        return KinematicTerms(ls, la, lm, self.weight(t, pred))
+
+    def combined(self, k: KinematicTerms) -> Tensor:
+        """``λ_k^(t) L_k`` per sample ``(B,)`` with ``L_k = L_s + λ_a L_a + λ_m L_m`` (Eq. 4)."""
+        return k.weight * (k.skeleton + self.cfg.lambda_a * k.symmetry + self.cfg.lambda_m * k.x0)
+
+    # ------------------------------------------------------------ on another model's decoded x̂₀
+    schedules_itself = True
+    """:class:`~momu.losses.decoded.DecodedMotionLoss`: λ_k^(t) is part of the value (Eq. 4)."""
+    needs_music_beats = False
+
+    def decoded_loss(self, d: DecodedMotion) -> tuple[Tensor, dict[str, Tensor]]:
+        """``λ_k^(t) L_k`` per sample on decoded joint positions (:mod:`momu.losses.decoded`).
+
+        L_s and L_a are taken on ``d.pred``, L_m between the MoFusion pose vectors (§3: root
+        translation + root-relative joints) of ``d.pred`` and ``d.target``; the positions are used
+        as they are (no pose-vector standardisation: :meth:`set_statistics` does not apply).
+        """
+        if d.pred.shape[-2:] != (self.skeleton.num_joints, 3):
+            raise ValueError(
+                f"scheduled_kinematic: decoded motion has {tuple(d.pred.shape[-2:])} joints x dims, "
+                f"skeleton {self.cfg.skeleton!r} needs ({self.skeleton.num_joints}, 3)"
+            )
+        if not self.active:
+            return d.pred.new_zeros(d.pred.shape[0]), {}
+        root = self.skeleton.root
+        k = self.pose_terms(
+            d.pred, encode_pose(d.pred, root), encode_pose(d.target, root).detach(), d.t, d.mask
+        )
+        value = self.combined(k)
+        logs = {
+            "l_s": k.skeleton.detach().mean(),
+            "l_a": k.symmetry.detach().mean(),
+            "l_m": k.x0.detach().mean(),
+        }
+        return value, logs
 
     def forward(
         self,
@@ -230,14 +278,13 @@ class ScheduledKinematicLoss(nn.Module):
         if not self.active:
             return out.loss, logs
         k = self.terms(out, x0, x_mask)
-        c = self.cfg
-        l_k = k.skeleton + c.lambda_a * k.symmetry + c.lambda_m * k.x0  # (B,)
-        total = out.loss + (k.weight * l_k).mean()
+        weighted = self.combined(k)  # (B,)
+        total = out.loss + weighted.mean()
         logs.update(
             l_s=k.skeleton.detach().mean(),
             l_a=k.symmetry.detach().mean(),
             l_m=k.x0.detach().mean(),
-            l_k_weighted=(k.weight * l_k).detach().mean(),
+            l_k_weighted=weighted.detach().mean(),
         )
         return total, logs
 

@@ -115,6 +115,12 @@ class MoMuConfig:
         music_sampler, motion_sampler: the sampler node of motion→music (θ_a) and of music→motion
             (θ_m) when the two directions should differ (steps, scheduler, guidance scale w of Eq. 7,
             which the paper does not give); ``null`` uses ``sampler``.
+        diffusion_losses: other methods' pose losses added to θ_m's training on its clean estimate
+            x̂₀ decoded to joint positions (registered loss nodes with ``decoded_loss``, e.g.
+            ``scheduled_kinematic`` — MoFusion Eq. 4–7, 3D skeletons — or ``harmony`` — HarmoGAN
+            Eq. 16; :mod:`momu.methods.momu.decoded_losses`); a loss's ``skeleton`` is the data's.
+            Needs ``motion_representation: positions``. Empty (the default): MoMu Eq. 6 alone.
+        diffusion_loss_weights: the weight of each of ``diffusion_losses`` (empty: 1 each).
         train_music_vae, train_motion_vae, train_diffusion: engine settings of the three stages.
         evaluation: :class:`MoMuEvalConfig`.
     """
@@ -145,6 +151,8 @@ class MoMuConfig:
     bone_ratio: float = 1.3
     music_sampler: Any = None
     motion_sampler: Any = None
+    diffusion_losses: list[Any] = field(default_factory=list)
+    diffusion_loss_weights: list[float] = field(default_factory=list)
     train_music_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_motion_vae: TrainConfig = field(default_factory=lambda: TrainConfig(steps=1000, lr=2e-4))
     train_diffusion: TrainConfig = field(default_factory=lambda: TrainConfig(steps=2000, lr=1e-4))
@@ -218,6 +226,28 @@ def check_config(cfg: MoMuConfig) -> None:
     _check_prediction_types(cfg)
     if cfg.bone_ratio <= 0:
         raise ValueError(f"method.bone_ratio must be > 0, got {cfg.bone_ratio}")
+    _check_diffusion_losses(cfg)
+
+
+def _check_diffusion_losses(cfg: MoMuConfig) -> None:
+    """``diffusion_losses``: losses that take decoded poses, one weight each, positions motion."""
+    losses, weights = list(cfg.diffusion_losses or []), list(cfg.diffusion_loss_weights or [])
+    if weights and len(weights) != len(losses):
+        raise ValueError(
+            f"method.diffusion_loss_weights: {len(weights)} weight(s) for {len(losses)} diffusion_losses "
+            "(give one per loss, or none for 1 each)"
+        )
+    if any(w < 0 for w in weights):
+        raise ValueError(f"method.diffusion_loss_weights must be >= 0, got {weights}")
+    if losses and cfg.motion_representation != "positions":
+        raise ValueError(
+            "method.diffusion_losses: needs motion_representation 'positions' (the losses take the "
+            f"decoder's joint positions), got {cfg.motion_representation!r}"
+        )
+    if losses:
+        from momu.methods.momu.decoded_losses import build_decoded_losses, loss_nodes
+
+        build_decoded_losses(loss_nodes(cfg))  # a loss that cannot take decoded poses fails here
 
 
 def _prediction_type(node: Any) -> str:

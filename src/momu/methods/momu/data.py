@@ -190,6 +190,9 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
     With ``conditions`` (:class:`~momu.methods.momu.conditions.Conditions`) the motion is in its
     representation and items carry the condition features ``"f_music"`` (θ_m's, from the music) and
     ``"f_motion"`` (θ_a's, from the motion), ``(n_z, C)`` each, tracked over the whole clip.
+    With ``music_beats`` items carry the window's salient music beats (HarmoGAN's, found over the
+    whole clip): ``"beat_times"`` (s from the window start), ``"beat_saliency"``, ``"beat_mask"``,
+    ``(K,)`` each, zero-padded to the most beats of any window.
     """
 
     def __init__(
@@ -203,6 +206,7 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
         need_mel: bool = True,
         need_wave: bool = False,
         conditions: Any = None,
+        music_beats: bool = False,
     ) -> None:
         if window_seconds <= 0 or hop_seconds <= 0:
             raise ValueError(
@@ -216,6 +220,7 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
         n_samples = self.latent_frames * rates.samples_per_latent
         n_mel = n_samples // rates.hop_length
         self.items: list[dict[str, torch.Tensor]] = []
+        beats: list[Any] = []
         for clip in clips:
             audio = _waveform(clip, rates.sample_rate)
             duration = min(len(audio) / rates.sample_rate, clip.num_frames / clip.fps)
@@ -225,6 +230,7 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
             raw = clip.motion if conditions is None else conditions.clip_motion(clip)
             motion = norms.motion.transform(np.asarray(raw, dtype=np.float32))
             tracks = _condition_tracks(conditions, clip, audio, rates.sample_rate)
+            clip_beats = _music_beats(audio, rates.sample_rate) if music_beats else None
             starts = np.arange(0.0, duration - seconds + 1e-6, hop_seconds)
             for start_s in starts:
                 first = int(round(start_s * rates.sample_rate / rates.hop_length))
@@ -249,18 +255,38 @@ class WindowDataset(Dataset[dict[str, torch.Tensor]]):
                 for key, track in tracks.items():
                     f = track.features(self.latent_frames, rates.latent_rate, start=t0)
                     item[key] = torch.from_numpy(np.ascontiguousarray(f, dtype=np.float32))
+                if clip_beats is not None:
+                    beats.append(clip_beats.window(t0, seconds))
                 self.items.append(item)
         if not self.items:
             raise ValueError(
                 f"no training window of {seconds:.2f} s fits in the {len(clips)} training clip(s); "
                 f"lower method.window_seconds"
             )
+        if beats:  # one width K for every window, so the items stack
+            from momu.losses.harmony import pad_targets
+
+            times, saliency, mask = pad_targets(beats)
+            for i, item in enumerate(self.items):
+                item.update(beat_times=times[i], beat_saliency=saliency[i], beat_mask=mask[i])
 
     def __len__(self) -> int:
         return len(self.items)
 
     def __getitem__(self, index: int) -> dict[str, torch.Tensor]:
         return self.items[index]
+
+
+def _music_beats(audio: np.ndarray, sample_rate: int) -> Any:
+    """The salient music beats of a whole clip (HarmoGAN's, :func:`momu.losses.harmony.audio_targets`;
+    none for a clip without onsets)."""
+    from momu.losses.harmony import AudioTargets, audio_targets
+    from momu.metrics._checks import EmptyBeatsError
+
+    try:
+        return audio_targets(audio, sample_rate)
+    except EmptyBeatsError:
+        return AudioTargets(np.zeros(0), np.zeros(0))
 
 
 def _condition_tracks(conditions: Any, clip: Clip, audio: np.ndarray, sample_rate: int) -> dict[str, Any]:

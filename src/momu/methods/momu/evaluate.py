@@ -155,9 +155,16 @@ def _truth(ctx: RunContext, dataset: Any, data_key: Any, ev: Any, lengths: list[
 
 
 def _floors(
-    ctx: RunContext, extractors: dict[str, Any], dataset: Any, data_key: Any, ev: Any, truth: list[Clip]
+    ctx: RunContext,
+    extractors: dict[str, Any],
+    dataset: Any,
+    data_key: Any,
+    ev: Any,
+    truth: list[Clip],
+    kinds: Sequence[str] = ("audio", "motion"),
 ) -> dict[str, float]:
-    """The real-vs-real FAD and FID: ``reference_split`` crops against the evaluation clips.
+    """The real-vs-real FAD (``audio``) and FID (``motion``): ``reference_split`` crops against the
+    evaluation clips.
 
     They depend on the data, the evaluation settings (extractors included) and the clips' lengths,
     not on the row or its seed, so a process computes them once for those.
@@ -170,13 +177,16 @@ def _floors(
                 f"method.evaluation: {len(others)} '{ev.reference_split}' clips for {len(truth)} "
                 "evaluation clips; the real-vs-real floor needs as many (raise dataset.num_clips)"
             )
-        return {
-            "music_fad": fad(extractors["audio"], others, truth),
-            "motion_fid": fid(extractors["motion"], others, truth),
-        }
+        out = {}
+        if "audio" in kinds:
+            out["music_fad"] = fad(extractors["audio"], others, truth)
+        if "motion" in kinds:
+            out["motion_fid"] = fid(extractors["motion"], others, truth)
+        return out
 
     clips = [(c.id, c.duration) for c in truth]
-    return dict(ctx.remember(("momu floors", data_key, dataclasses.asdict(ev), clips), compute))
+    key = ("momu floors", data_key, dataclasses.asdict(ev), clips, tuple(sorted(kinds)))
+    return dict(ctx.remember(key, compute))
 
 
 def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:

@@ -7,7 +7,8 @@ Training (:meth:`MoMu.fit`, every stage through :meth:`momu.engine.context.RunCo
 2. **Stage 2 — motion VAE** (Eq. 11): ``L_recon + λ3 L_KL + λ4 L_contrast`` with the music VAE
    frozen (λ3 = 1e-5, λ4 = 1 in ``contrastive_loss``; ``contrastive_loss: null`` is Table 7 #3).
 3. **Diffusion** (Eq. 6): θ_a (motion→music) and θ_m (music→motion) on the aligned latents,
-   ε-prediction with condition dropout for classifier-free guidance.
+   ε-prediction with condition dropout for classifier-free guidance; with ``diffusion_losses``, θ_m
+   also gets other methods' pose losses on its decoded x̂₀ (:mod:`.decoded_losses`).
 
 Stage keys hold everything that determines a stage's weights — its part configs, its training
 config, the dataset config and window, the seed, and the keys of the stages it builds on — so
@@ -48,6 +49,7 @@ from momu.features.skeletons import get_skeleton
 from momu.methods.momu.conditions import Conditions
 from momu.methods.momu.config import MoMuConfig, _plain, backbone_node, check_config
 from momu.methods.momu.data import MoMuNormalizers, Rates, WindowDataset, select_split
+from momu.methods.momu.decoded_losses import BEAT_KEYS, DecodedLosses, build_decoded_losses, loss_nodes
 from momu.methods.momu.model import MoMuModel
 from momu.methods.momu.stages import DiffusionStage, MotionVAEStage, stage_step, train_music_vae_stage
 from momu.registry import METHODS
@@ -77,6 +79,8 @@ class MoMu:
         if not train:
             raise ValueError("the dataset has no 'train' clips with motion and audio")
         motion = dataset[train[0]].motion
+        if self.cfg.diffusion_losses:  # a pose loss that cannot take this skeleton fails before training
+            build_decoded_losses(loss_nodes(self.cfg, str(dataset[train[0]].skeleton or "")))
         enc = dict(_plain(self.cfg.encoder))
         shape = {"num_joints": int(motion.shape[1]), "joint_dims": int(motion.shape[2])}
         changed = {k: v for k, v in shape.items() if k in enc and enc[k] != v}
@@ -179,6 +183,14 @@ class MoMu:
             **conditions,
             **({"train_min_seconds": c.train_min_seconds} if c.train_min_seconds is not None else {}),
             **({"train_lengths": c.train_lengths} if c.train_lengths != "item" else {}),
+            **(
+                {
+                    "diffusion_losses": [_plain(n) for n in c.diffusion_losses],
+                    "diffusion_loss_weights": list(c.diffusion_loss_weights),
+                }
+                if c.diffusion_losses
+                else {}
+            ),
             "train": dataclasses.asdict(c.train_diffusion),
             "seed": seed,
         }
@@ -202,8 +214,13 @@ class MoMu:
         train_clips, norms = ctx.remember(
             ("momu train clips", data_key, c.sample_rate, c.motion_representation), clips_and_norms
         )
-        conditions = Conditions.of(c, str(train_clips[0].skeleton or ""))
-        plain = not conditions.any_features and conditions.representation == "positions"
+        skeleton = str(train_clips[0].skeleton or "")
+        conditions = Conditions.of(c, skeleton)
+        decoded_nodes = loss_nodes(c, skeleton)
+        music_beats = bool(decoded_nodes) and any(
+            getattr(p, "needs_music_beats", False) for p in build_decoded_losses(decoded_nodes)
+        )
+        plain = not conditions.any_features and conditions.representation == "positions" and not music_beats
         keys = self.stage_keys(data_key, seed)
         # Each stage builds its modules under its own seed (RunContext.stage): the initial weights
         # never depend on whether an earlier stage was trained in this process or loaded.
@@ -225,6 +242,7 @@ class MoMu:
                     need_mel=vae.music_input == "mel",
                     need_wave=vae.music_input == "waveform",
                     conditions=None if plain else conditions,
+                    music_beats=music_beats,
                 )
                 log.info(
                     "momu: %d training windows of %.2f s",
@@ -269,6 +287,18 @@ class MoMu:
 
         def build_diffusion() -> DiffusionStage:
             scheduler = build_component(c.scheduler, "schedulers")
+            decoded = None
+            if decoded_nodes:
+                weights = list(c.diffusion_loss_weights) or [1.0] * len(decoded_nodes)
+                decoded = DecodedLosses(
+                    build_decoded_losses(decoded_nodes, scheduler),
+                    weights,
+                    vae.motion_vae,
+                    norms.motion.mean,
+                    norms.motion.std,
+                    skeleton,
+                    rates.motion_fps,
+                )
             built["diffusion"] = DiffusionStage(
                 build_component(music_node, "backbones"),
                 build_component(motion_node, "backbones"),
@@ -277,6 +307,7 @@ class MoMu:
                 min_frames,
                 per_batch=c.train_lengths == "batch",
                 condition_latents=c.condition_latents,
+                decoded=decoded,
             )
             return built["diffusion"]
 
@@ -286,7 +317,7 @@ class MoMu:
             built["diffusion"].set_statistics(z_music, z_motion)
             features: dict[str, torch.Tensor] = {
                 key: torch.stack([item[key] for item in data.items])
-                for key in ("f_music", "f_motion")
+                for key in ("f_music", "f_motion", *BEAT_KEYS)
                 if key in data.items[0]
             }
             return LatentDataset(z_music, z_motion, features)
@@ -301,7 +332,6 @@ class MoMu:
         )
         assert isinstance(diffusion, DiffusionStage)
         diffusion = diffusion.to("cpu").eval()
-        skeleton = str(train_clips[0].skeleton or "")
         bones = get_skeleton(skeleton).bones if skeleton else ()
         lengths = (
             np.asarray(

@@ -22,6 +22,8 @@ returning ``(loss, logs)``.
   and condition dropout (Eq. 6), optionally on masked windows of varying length (MoMu §5.3's
   pad-and-truncate, so variable-length generation samples lengths seen in training); the
   per-channel latent statistics are buffers, so they are saved and reloaded with the weights.
+  With ``method.diffusion_losses`` θ_m's loss also gets other methods' pose losses on its decoded
+  clean estimate (:mod:`momu.methods.momu.decoded_losses`).
 """
 
 from __future__ import annotations
@@ -136,11 +138,13 @@ class DiffusionStage(nn.Module):
         min_frames: int | None = None,
         per_batch: bool = False,
         condition_latents: bool = True,
+        decoded: nn.Module | None = None,
     ) -> None:
         super().__init__()
         self.music_backbone = music_backbone
         self.motion_backbone = motion_backbone
         self.loss = loss
+        self.decoded = decoded
         self.min_frames = min_frames
         self.per_batch = per_batch
         self.condition_latents = condition_latents
@@ -164,6 +168,10 @@ class DiffusionStage(nn.Module):
 
     def standardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
         return (z - getattr(self, f"{modality}_mean")) / getattr(self, f"{modality}_std")
+
+    def unstandardise(self, z: torch.Tensor, modality: str) -> torch.Tensor:
+        """The inverse of :meth:`standardise`."""
+        return z * getattr(self, f"{modality}_std") + getattr(self, f"{modality}_mean")
 
     def _train_min_frames(self) -> int | None:
         """The shortest training length, or ``None`` (evaluation, or fixed-length training)."""
@@ -204,13 +212,28 @@ class DiffusionStage(nn.Module):
         loss_a = self.loss(
             self.music_backbone, z_a, self.condition(z_m, batch.get("f_motion")), x_mask=mask, cond_mask=mask
         ).loss  # θ_a: motion → music
-        loss_m = self.loss(
+        out_m = self.loss(
             self.motion_backbone, z_m, self.condition(z_a, batch.get("f_music")), x_mask=mask, cond_mask=mask
-        ).loss  # θ_m: music → motion
-        return with_every_parameter(self, loss_a + loss_m), {
-            "motion2music": loss_a.detach(),
-            "music2motion": loss_m.detach(),
-        }
+        )  # θ_m: music → motion
+        loss_m = out_m.loss
+        logs = {"motion2music": loss_a.detach(), "music2motion": loss_m.detach()}
+        total = loss_a + loss_m
+        if self.decoded is not None:  # other methods' pose losses on θ_m's decoded x̂₀
+            beats = None
+            if all(k in batch for k in ("beat_times", "beat_saliency", "beat_mask")):
+                beats = (batch["beat_times"], batch["beat_saliency"], batch["beat_mask"].bool())
+            extra, extra_logs = self.decoded(
+                out_m.x0_pred,
+                self.unstandardise(z_m, "motion"),
+                self.unstandardise(out_m.x0_pred, "motion"),
+                out_m.t,
+                self.loss.scheduler.alphas_cumprod,
+                mask,
+                beats,
+            )
+            total = total + extra
+            logs.update(extra_logs)
+        return with_every_parameter(self, total), logs
 
 
 def train_music_vae_stage(
