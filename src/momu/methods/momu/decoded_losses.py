@@ -115,7 +115,7 @@ class DecodedLosses(nn.Module):
 
     def positions(self, z_raw: torch.Tensor) -> torch.Tensor:
         """Raw motion latents ``(B, T_z, d)`` → joint positions ``(B, T_z · frames_per_latent, J, D)``."""
-        normalised = self.decoder.decode(z_raw)
+        normalised: torch.Tensor = self.decoder.decode(z_raw)  # type: ignore[operator]
         return normalised * self.motion_std.to(normalised.dtype) + self.motion_mean.to(normalised.dtype)
 
     def forward(
