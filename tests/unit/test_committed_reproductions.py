@@ -22,7 +22,9 @@ from momu.engine.statistics import MIN_CLIPS, MIN_SEEDS
 from momu.engine.table_report import ordering_lines, pairwise_lines, verdict_lines
 
 ROOT = Path(__file__).resolve().parents[2] / "reproductions"
-FOLDERS = sorted(p.parent for p in ROOT.glob("*/results.json"))
+# the tables' results (rows × columns); the music-following collections (reproductions/which_models_follow,
+# music_following_*) have their own layout, checked in tests/unit/test_following_table.py
+FOLDERS = sorted(p.parent for p in ROOT.glob("*/results.json") if "columns" in json.loads(p.read_text()))
 
 
 def _result(folder: Path) -> dict:

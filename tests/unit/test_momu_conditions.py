@@ -118,8 +118,8 @@ def test_bad_conditions_are_named() -> None:
     assert rejected(music_condition={"name": "motion_rhythm", "bpm": 3}).startswith(
         "method.music_condition: "
     )
-    assert rejected(motion_condition={"name": "mfcc"}) == (
-        "method.motion_condition: MfccEncoder has no track()/out_channels (docs/protocols.md)"
+    assert rejected(motion_condition={"name": "waveform"}) == (
+        "method.motion_condition: WaveformVAE has no track()/out_channels (docs/protocols.md)"
     )
     assert rejected(condition_latents=False, motion_condition={"name": "music_rhythm"}).startswith(
         "method.condition_latents: false needs both motion_condition and music_condition"

@@ -1,0 +1,69 @@
+"""Does the tempo read from a real dance match its song's? (issue 32, the dance → music direction)
+
+    python benchmarks/dance_tempo_vs_song.py [--data ../shared/data/dance_with_melody] [--out FILE.json]
+
+For every Dance with Melody dance, the 15-s excerpt the music-following benchmark uses (2 s in): the
+song's tempo (:func:`momu.following.analysis.analyse_audio`, the benchmark's periodogram) against the
+dance's tempo as the shipped model's ``motion_rhythm`` condition reads it (librosa's beat tracker on the
+kinematic-onset envelope, :mod:`momu.features.rhythm`) and as the benchmark reads it (periodogram of the
+mean joint speed). A match is the benchmark's (:func:`momu.following.tempo.tempo_matches`: within 5 %
+of ×1, ×2, ×½, ×3, ×⅓). Writes the per-dance tempi and the shares.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+
+from momu.config import build_component
+from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, motion_envelope, track_beats
+from momu.following.analysis import analyse_audio, analyse_motion
+from momu.following.tempo import beat_tempo, tempo_matches
+
+START_S, SECONDS = 2.0, 15.0
+log = logging.getLogger("dance_tempo_vs_song")
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", default="../shared/data/dance_with_melody")
+    p.add_argument("--out", type=Path, default=Path("benchmarks/results/dance_tempo_vs_song.json"))
+    args = p.parse_args()
+    node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all"}
+    ds = build_component(node, "datasets")
+    rows = []
+    for i in range(len(ds)):
+        clip = ds[i]
+        f0, f1 = int(START_S * clip.fps), int((START_S + SECONDS) * clip.fps)
+        motion = (clip.motion + clip.trajectory[:, None])[f0:f1]
+        audio = clip.audio[int(START_S * clip.sample_rate) : int((START_S + SECONDS) * clip.sample_rate)]
+        song = analyse_audio(audio, clip.sample_rate).tempo
+        tracked = beat_tempo(track_beats(motion_envelope(motion, clip.fps), ENVELOPE_RATE, RhythmConfig()))
+        periodogram = analyse_motion(motion, clip.fps, "dwm21").tempo
+        rows.append(
+            {
+                "id": clip.id,
+                "song_bpm": round(float(song), 1),
+                "motion_rhythm_bpm": round(float(tracked), 1),
+                "periodogram_bpm": round(float(periodogram), 1),
+                "motion_rhythm_matches": bool(tempo_matches(tracked, song)),
+                "periodogram_matches": bool(tempo_matches(periodogram, song)),
+            }
+        )
+        log.info("%s", rows[-1])
+    summary = {
+        key: f"{sum(r[key] for r in rows)} of {len(rows)}"
+        for key in ("motion_rhythm_matches", "periodogram_matches")
+    }
+    log.info("%s", summary)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(
+        json.dumps({"excerpt_s": [START_S, SECONDS], "summary": summary, "dances": rows}, indent=2) + "\n"
+    )
+
+
+if __name__ == "__main__":
+    main()
