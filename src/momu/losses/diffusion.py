@@ -3,9 +3,10 @@
 L = ‖ε_θ(z_t, t, c) − ε‖²₂ with t ~ U{0, …, T−1}, ε ~ N(0, I) and z_t from the scheduler's
 closed-form forward diffusion (Eq. 5). A scheduler whose ``prediction_type`` is ``sample`` trains
 the denoiser to output ẑ_0 instead, L = ‖x̂_θ(z_t, t, c) − z_0‖²₂ (MDM, EDGE), and ``v_prediction``
-the velocity v = √ᾱ ε − √(1−ᾱ) z_0; the output's ε̂ and ẑ_0 are both returned either way. With probability ``cond_drop_prob`` an item's condition is
-replaced by the backbone's learned null embedding (``drop_cond``), which trains the unconditional
-branch used by classifier-free guidance (Eq. 7). The mean runs over valid frames only.
+the velocity v = √ᾱ ε − √(1−ᾱ) z_0; the output's ε̂ and ẑ_0 are both returned either way. With
+probability ``cond_drop_prob`` an item's condition is replaced by the backbone's learned null
+embedding (``drop_cond``), which trains the unconditional branch used by classifier-free guidance
+(Eq. 7). The mean runs over valid frames only.
 """
 
 from __future__ import annotations
