@@ -12,7 +12,10 @@ ETA for the whole job from the first unit's first steps on:
 * the fraction of the job done is ``(units done + steps done in this unit / its planned steps) /
   units``, and the ETA is the time spent in units so far scaled to the rest. Until a unit has
   finished, evaluation time is not in the estimate (it enters with the first finished unit); a
-  config with no step-counted training shows its ETA after its first unit.
+  config with no step-counted training shows its ETA after its first unit. The learned metrics'
+  extractors (trained once per run by the first evaluation that needs them) show their steps on the
+  line (:meth:`JobProgress.side_step`) but are not in the planned work: their time enters the ETA
+  with the first finished unit.
 
 With ``--jobs N`` several units run at once in worker processes: each worker reports its unit's steps
 to the parent (:class:`momu.engine.table_workers.UnitReporter`), whose one bar follows them all
@@ -59,6 +62,8 @@ class StageProgress(Protocol):
     def stage_step(self, name: str, step: int, steps: int) -> None: ...
 
     def stage_done(self, name: str, steps: int, how: str) -> None: ...
+
+    def side_step(self, name: str, step: int, steps: int) -> None: ...
 
 
 @dataclass
@@ -109,6 +114,14 @@ class JobProgress:
         unit = self._running.get(self._latest)
         if unit is not None:
             unit.stage, unit.current = f"{name} {step}/{steps}", step
+        self._refresh()
+
+    def side_step(self, name: str, step: int, steps: int) -> None:
+        """Work of the latest unit outside its planned steps (a metric's extractor, trained by its first
+        evaluation) is at ``step`` of ``steps``: shown on the line, not counted in the fraction done."""
+        unit = self._running.get(self._latest)
+        if unit is not None:
+            unit.stage = f"{name} {step}/{steps}"
         self._refresh()
 
     def stage_done(self, name: str, steps: int, how: str) -> None:

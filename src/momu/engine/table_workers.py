@@ -151,6 +151,12 @@ class UnitReporter:
             self._last = now
             self._send(self._finished_steps + step, f"{name} {step}/{steps}")
 
+    def side_step(self, name: str, step: int, steps: int) -> None:
+        now = time.monotonic()
+        if now - self._last >= REPORT_EVERY_S:
+            self._last = now
+            self._send(self._finished_steps, f"{name} {step}/{steps}")
+
     def stage_done(self, name: str, steps: int, how: str) -> None:
         self._finished_steps += steps
         self._send(self._finished_steps, f"{name} {how}")

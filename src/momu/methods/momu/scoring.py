@@ -15,6 +15,7 @@ modality of pair π(i).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -309,6 +310,9 @@ def _train_missing_extractors(
                     train=train,
                     provenance={"git_commit": ctx.commit},
                     checkpointing=Checkpointing(path.with_name(f"{path.stem}.checkpoints"), ctx.resume),
+                    on_step=None
+                    if ctx.progress is None
+                    else functools.partial(ctx.progress.side_step, kind + " extractor"),
                 )
             ctx.accelerator.wait_for_everyone()
             ctx.trained[path.stem] = "trained"

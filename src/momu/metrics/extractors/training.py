@@ -9,7 +9,7 @@ import dataclasses
 import logging
 import shutil
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from contextlib import closing, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -138,10 +138,12 @@ def _fit_loop(
     train: TrainConfig,
     desc: str,
     checkpointing: Checkpointing | None = None,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> list[float]:
     """Adam over ``train.epochs`` epochs of ``num_samples`` samples; returns the mean loss per epoch.
 
-    The progress bar counts optimizer steps. With ``checkpointing``, SIGTERM or Ctrl-C (or the exit of
+    The progress bar counts optimizer steps; ``on_step(step, steps)`` is called after each one (a
+    table run's progress line shows it). With ``checkpointing``, SIGTERM or Ctrl-C (or the exit of
     an ``accelerate launch`` parent) writes a checkpoint after the current step and raises
     :class:`~momu.engine.trainer.Preempted`; so does every ``checkpointing.minutes`` of training
     (without stopping). A run resumed from a checkpoint ends with the same weights as an
@@ -218,6 +220,8 @@ def _fit_loop(
             seen += len(y)
             batch += 1
             bar.update(1)
+            if on_step is not None:
+                on_step(epoch * len(slices) + batch, steps)
             if batch == len(slices):
                 history.append(total / seen)
                 bar.set_postfix(epoch=len(history), loss=f"{history[-1]:.4f}")
@@ -238,6 +242,7 @@ def train_motion_classifier(
     cfg: MotionClassifierConfig | None = None,
     train: TrainConfig | None = None,
     checkpointing: Checkpointing | None = None,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> tuple[MotionClassifier, dict[str, Any]]:
     """Train a motion style classifier on labelled clips (MoMu App. B.5).
 
@@ -281,7 +286,7 @@ def train_motion_classifier(
         y = torch.as_tensor(labels[tr_idx][owners[sel]], device=device)
         return torch.from_numpy(np.stack(xs)).to(device), torch.from_numpy(np.stack(ms)).to(device), y
 
-    history = _fit_loop(model, sample_batch, len(owners), train, "motion classifier", checkpointing)
+    history = _fit_loop(model, sample_batch, len(owners), train, "motion classifier", checkpointing, on_step)
     summary: dict[str, Any] = {
         "class_names": classes,
         "loss_history": history,
@@ -303,6 +308,7 @@ def train_audio_classifier(
     cfg: AudioClassifierConfig | None = None,
     train: TrainConfig | None = None,
     checkpointing: Checkpointing | None = None,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> tuple[AudioClassifier, dict[str, Any]]:
     """Train the default audio embedding: a log-mel CNN classifying 0.96 s segments by style.
 
@@ -347,7 +353,7 @@ def train_audio_classifier(
         y = torch.as_tensor(labels[tr_idx][owners[sel]], device=device)
         return torch.from_numpy(np.stack(xs)).to(device), None, y
 
-    history = _fit_loop(model, sample_batch, len(owners), train, "audio classifier", checkpointing)
+    history = _fit_loop(model, sample_batch, len(owners), train, "audio classifier", checkpointing, on_step)
     summary: dict[str, Any] = {
         "class_names": classes,
         "loss_history": history,
@@ -377,12 +383,14 @@ def train_extractor(
     train: TrainConfig | None = None,
     provenance: Mapping[str, str] | None = None,
     checkpointing: Checkpointing | None = None,
+    on_step: Callable[[int, int], None] | None = None,
 ) -> tuple[MotionExtractor | AudioClassifierEmbedding, dict[str, Any]]:
     """Train a ``"motion"`` or ``"audio"`` extractor on labelled clips and (optionally) save it to ``out``.
 
     ``provenance`` is stored in the saved ``.json`` (:func:`~momu.metrics.extractors.storage.save_extractor`).
     ``checkpointing``: resumable checkpoints (on SIGTERM / Ctrl-C and every few minutes, see
-    :class:`Checkpointing`); they are deleted once the extractor is saved.
+    :class:`Checkpointing`); they are deleted once the extractor is saved. ``on_step(step, steps)``:
+    called after every optimizer step.
 
     Returns the evaluation wrapper (with checkpoint path and sha256 when saved) and the training summary.
     """
@@ -390,11 +398,11 @@ def train_extractor(
         if model_config is not None and not isinstance(model_config, MotionClassifierConfig):
             raise ValueError("model_config must be a MotionClassifierConfig for kind 'motion'")
         model: MotionClassifier | AudioClassifier
-        model, summary = train_motion_classifier(clips, model_config, train, checkpointing)
+        model, summary = train_motion_classifier(clips, model_config, train, checkpointing, on_step)
     elif kind in ("audio", "audio_classifier"):
         if model_config is not None and not isinstance(model_config, AudioClassifierConfig):
             raise ValueError("model_config must be an AudioClassifierConfig for kind 'audio'")
-        model, summary = train_audio_classifier(clips, model_config, train, checkpointing)
+        model, summary = train_audio_classifier(clips, model_config, train, checkpointing, on_step)
     else:
         raise ValueError(f"extractor kind must be 'motion' or 'audio', got {kind!r}")
     digest = None if out is None else save_extractor(out, model, summary, provenance)

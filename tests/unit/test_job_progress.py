@@ -1,0 +1,40 @@
+"""The table run's progress line: an extractor's training shows on it without skewing the ETA."""
+
+from __future__ import annotations
+
+from momu.data.synth import SynthConfig, SynthDance
+from momu.encoders.dstformer import DSTformerConfig
+from momu.engine.progress import JobProgress
+from momu.metrics.extractors import MotionClassifierConfig, TrainConfig, train_extractor
+
+
+def test_side_work_is_shown_but_not_counted_as_planned_steps() -> None:
+    progress = JobProgress("t", units=2, enabled=False)
+    progress.start_unit("row #1 seed 0", planned=100)
+    progress.stage_step("diffusion", 50, 100)
+    fraction = progress._running["row #1 seed 0"].fraction()
+    assert fraction == 0.5
+    progress.stage_done("diffusion", 100, "trained")
+    progress.side_step("motion extractor", 7, 40)
+    assert progress._stage_text() == "motion extractor 7/40"
+    assert progress._running["row #1 seed 0"].fraction() == 1.0  # the extractor adds no planned work
+    progress.finish_unit()
+    assert progress.done == 1
+    progress.close()
+
+
+def test_extractor_training_reports_every_optimizer_step() -> None:
+    cfg = SynthConfig(num_clips=12, min_seconds=3.0, max_seconds=3.0, skeleton="openpose14", fps=15.0,
+                      styles=["ballet", "hiphop"])  # fmt: skip
+    clips = [SynthDance(cfg, split="train")[i] for i in range(len(SynthDance(cfg, split="train")))]
+    tiny = MotionClassifierConfig(
+        fps=15.0, window=30, hidden=16, dstformer=DSTformerConfig(dim_feat=8, dim_rep=8, depth=1, num_heads=2)
+    )
+    seen: list[tuple[int, int]] = []
+    train_extractor(
+        "motion", clips, model_config=tiny, train=TrainConfig(epochs=2, val_fraction=0.0, batch_size=4),
+        on_step=lambda step, steps: seen.append((step, steps)),
+    )  # fmt: skip
+    steps = seen[-1][1]
+    assert [s for s, _ in seen] == list(range(1, steps + 1))
+    assert steps >= 2 and all(total == steps for _, total in seen)
