@@ -8,6 +8,12 @@ dance's tempo as the shipped model's ``motion_rhythm`` condition reads it (libro
 kinematic-onset envelope, :mod:`momu.features.rhythm`) and as the benchmark reads it (periodogram of the
 mean joint speed). A match is the benchmark's (:func:`momu.following.tempo.tempo_matches`: within 5 %
 of ×1, ×2, ×½, ×3, ×⅓). Writes the per-dance tempi and the shares.
+
+Stretch: the same excerpt played ×0.8, ×0.9, ×1.1 and ×1.25 faster
+(:func:`momu.following.signals.time_scale_motion`, as the benchmark's tempo-following test does): does
+each estimate's tempo ratio (octave-folded, :func:`momu.following.tempo.fold_ratio`) follow the factor
+within 5 %? The music the shipped model writes follows the ``motion_rhythm`` tempo, so this bounds its
+tempo-following slope.
 """
 
 from __future__ import annotations
@@ -17,13 +23,26 @@ import json
 import logging
 from pathlib import Path
 
+import numpy as np
+
 from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, motion_envelope, track_beats
 from momu.following.analysis import analyse_audio, analyse_motion
-from momu.following.tempo import beat_tempo, tempo_matches
+from momu.following.inputs import FACTORS
+from momu.following.signals import time_scale_motion
+from momu.following.tempo import beat_tempo, fold_ratio, tempo_matches
 
 START_S, SECONDS = 2.0, 15.0
 log = logging.getLogger("dance_tempo_vs_song")
+
+
+def _tracked(motion: np.ndarray, fps: float) -> float:
+    """The dance's tempo as ``motion_rhythm`` reads it."""
+    return float(beat_tempo(track_beats(motion_envelope(motion, fps), ENVELOPE_RATE, RhythmConfig())))
+
+
+def _followed(ratio: float, factor: float) -> bool:
+    return abs(fold_ratio(ratio) / factor - 1.0) <= 0.05
 
 
 def main() -> None:
@@ -41,8 +60,11 @@ def main() -> None:
         motion = (clip.motion + clip.trajectory[:, None])[f0:f1]
         audio = clip.audio[int(START_S * clip.sample_rate) : int((START_S + SECONDS) * clip.sample_rate)]
         song = analyse_audio(audio, clip.sample_rate).tempo
-        tracked = beat_tempo(track_beats(motion_envelope(motion, clip.fps), ENVELOPE_RATE, RhythmConfig()))
+        tracked = _tracked(motion, clip.fps)
         periodogram = analyse_motion(motion, clip.fps, "dwm21").tempo
+        stretched = [time_scale_motion(motion, clip.fps, f) for f in FACTORS]
+        tracked_ratios = [_tracked(m, clip.fps) / tracked for m in stretched]
+        periodogram_ratios = [analyse_motion(m, clip.fps, "dwm21").tempo / periodogram for m in stretched]
         rows.append(
             {
                 "id": clip.id,
@@ -51,6 +73,11 @@ def main() -> None:
                 "periodogram_bpm": round(float(periodogram), 1),
                 "motion_rhythm_matches": bool(tempo_matches(tracked, song)),
                 "periodogram_matches": bool(tempo_matches(periodogram, song)),
+                "stretch_factors": list(FACTORS),
+                "motion_rhythm_ratios": [round(fold_ratio(r), 3) for r in tracked_ratios],
+                "periodogram_ratios": [round(fold_ratio(r), 3) for r in periodogram_ratios],
+                "motion_rhythm_follows": [_followed(r, f) for r, f in zip(tracked_ratios, FACTORS)],
+                "periodogram_follows": [_followed(r, f) for r, f in zip(periodogram_ratios, FACTORS)],
             }
         )
         log.info("%s", rows[-1])
@@ -58,6 +85,8 @@ def main() -> None:
         key: f"{sum(r[key] for r in rows)} of {len(rows)}"
         for key in ("motion_rhythm_matches", "periodogram_matches")
     }
+    for key in ("motion_rhythm_follows", "periodogram_follows"):
+        summary[key + "_stretch"] = f"{sum(sum(r[key]) for r in rows)} of {len(rows) * len(FACTORS)}"
     log.info("%s", summary)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(
