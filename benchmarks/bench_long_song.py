@@ -143,7 +143,7 @@ def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
         if variant != "two_pass_hard_edges":
             return music_to_motion_long(model, [song.audio], song.sample_rate, [seed], schedule=variant)[0]
         window, overlap = window_frames(model, "motion")  # the ablation: bridges keep known frames exactly
-        cond = model.encode_music(song.audio, song.sample_rate)
+        cond = model.condition_from_music(song.audio, song.sample_rate)
         (z,) = stitched_sample(
             model.sampler_for("motion"), model.motion_backbone, [cond], [seed], model.latent_channels,
             window=window, overlap=overlap, soft_edges=False,
@@ -224,7 +224,7 @@ def _child(name: str, args: argparse.Namespace) -> dict[str, Any]:
     load0 = os.getloadavg()[0]
     wall, cpu = time.perf_counter(), time.process_time()
     if run.get("bf16"):  # music_to_motion_long with the denoising (not the VAE) under bf16 autocast
-        cond = model.encode_music(song.audio, song.sample_rate)
+        cond = model.condition_from_music(song.audio, song.sample_rate)
         window, overlap = window_frames(model, "motion")
         with torch.autocast("cpu", dtype=torch.bfloat16):
             (z,) = stitched_sample(
