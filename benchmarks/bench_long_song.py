@@ -3,7 +3,8 @@ and the seam statistic of the stitched windows.
 
     python benchmarks/bench_long_song.py [--model DIR] [--seconds 180] [--threads 2] [--quick] [--out F.json]
 
-The song is a ``synth_dance`` song of the model's skeleton (seed 1, not a training clip's seed). Every
+The song is a ``synth_dance`` song of the data the model was trained on (its ``training_data.json``;
+seed 1, not a training clip's seed). Every
 measurement runs in a fresh process (its own peak memory; OpenMP reads its settings when torch loads):
 
 ``two_pass``
@@ -27,7 +28,7 @@ process's maximum resident set size.
 
 Seam statistic (per schedule): the joint-velocity jump (:func:`momu.generation.velocity_jumps`, m/s²) at
 every window boundary — where newly generated frames meet known ones — against the 95th percentile of
-the same statistic on real-like data (synth_dance clips of the same skeleton, at their own frame rate)
+the same statistic on its training data (synth_dance clips of the same config, at their own frame rate)
 and on the generated dance away from the boundaries; and the largest jump anywhere across the known
 frames a window was inpainted on (a soft-masked edge spreads its transition over them). One song says
 little about the tails, so ``seams_over_songs`` repeats both schedules (and two-pass with hard bridge
@@ -73,8 +74,27 @@ def _matmul_gflops(seconds: float = 0.5) -> float:
     return round(2 * 512**3 * n / (time.perf_counter() - start) / 1e9, 1)
 
 
-def _seam_statistic(model: Any, motion: np.ndarray, schedule: str, seconds: float) -> dict[str, Any]:
-    from momu.data.synth.dataset import SynthConfig, generate_clip
+def _synth_config(folder: Path, model: Any, **changes: Any) -> Any:
+    """The synth_dance config the model was trained on (its ``training_data.json``; the default styles
+    of the model's skeleton for a folder without one), with ``changes``."""
+    import dataclasses
+    import json
+
+    from momu.config import build_component
+    from momu.data.synth.dataset import SynthConfig
+
+    record = folder / "training_data.json"
+    if record.is_file():
+        base = build_component(json.loads(record.read_text()), "datasets").cfg
+    else:
+        base = SynthConfig(skeleton=model.skeleton)
+    return dataclasses.replace(base, **changes)
+
+
+def _seam_statistic(
+    folder: Path, model: Any, motion: np.ndarray, schedule: str, seconds: float
+) -> dict[str, Any]:
+    from momu.data.synth.dataset import generate_clip
     from momu.generation import seam_jumps, velocity_jumps
     from momu.generation.momu_long import plan_for_seconds
 
@@ -93,7 +113,7 @@ def _seam_statistic(model: Any, motion: np.ndarray, schedule: str, seconds: floa
             zone[max(0, s * per_latent - 1) : (s + head + 1) * per_latent - 1] = True
         if tail:
             zone[max(0, (e - tail - 1) * per_latent - 1) : e * per_latent - 1] = True
-    clips = [generate_clip(SynthConfig(num_clips=8, skeleton=model.skeleton, seed=9), i) for i in range(8)]
+    clips = [generate_clip(_synth_config(folder, model, num_clips=8, seed=9), i) for i in range(8)]
     p95 = float(np.percentile(np.concatenate([velocity_jumps(c.motion, c.fps) for c in clips]), 95))
     return {
         "seams": len(seams),
@@ -128,15 +148,16 @@ def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
 
     torch.set_num_threads(args.threads)
     from momu.cli.generate_io import default_model_dir
-    from momu.data.synth.dataset import SynthConfig, generate_clip
+    from momu.data.synth.dataset import generate_clip
     from momu.generation import seam_jumps, stitched_sample, velocity_jumps
     from momu.generation.follows_music import interval
     from momu.generation.momu_long import music_to_motion_long, plan_for_seconds, window_frames
     from momu.methods.momu import MoMuModel
 
-    model = MoMuModel.load(args.model or default_model_dir("dance"))
+    folder = Path(args.model or default_model_dir("dance"))
+    model = MoMuModel.load(folder)
     fps, per_latent = model.rates.motion_fps, model.rates.motion_frames_per_latent
-    clips = [generate_clip(SynthConfig(num_clips=8, skeleton=model.skeleton, seed=9), i) for i in range(8)]
+    clips = [generate_clip(_synth_config(folder, model, num_clips=8, seed=9), i) for i in range(8)]
     p95 = float(np.percentile(np.concatenate([velocity_jumps(c.motion, c.fps) for c in clips]), 95))
 
     def dance(song: Any, seed: int, variant: str) -> np.ndarray:
@@ -157,12 +178,8 @@ def _seams_over_songs(args: argparse.Namespace) -> dict[str, Any]:
     }
     pooled: dict[str, dict[str, list[float]]] = {k: {"seams": [], "zones": []} for k in per_song}
     for i in range(args.seam_songs):
-        cfg = SynthConfig(
-            num_clips=1,
-            min_seconds=args.seconds,
-            max_seconds=args.seconds,
-            skeleton=model.skeleton,
-            seed=200 + i,
+        cfg = _synth_config(
+            folder, model, num_clips=1, min_seconds=args.seconds, max_seconds=args.seconds, seed=200 + i
         )
         song = generate_clip(cfg, 0)
         for variant in per_song:
@@ -204,18 +221,16 @@ def _child(name: str, args: argparse.Namespace) -> dict[str, Any]:
     torch.set_num_threads(args.threads)
     from momu.cli.generate_io import default_model_dir
     from momu.cli.generate_write import write_dance_outputs
-    from momu.data.synth.dataset import SynthConfig, generate_clip
+    from momu.data.synth.dataset import generate_clip
     from momu.generation import stitched_sample
     from momu.generation.momu_long import music_to_motion_long, plan_for_seconds, window_frames
     from momu.methods.momu import MoMuModel
 
     run = RUNS[name]
-    folder = args.model or default_model_dir("dance")
+    folder = Path(args.model or default_model_dir("dance"))
     model = MoMuModel.load(folder)
     song = generate_clip(
-        SynthConfig(
-            num_clips=1, min_seconds=args.seconds, max_seconds=args.seconds, skeleton=model.skeleton, seed=1
-        ),
+        _synth_config(folder, model, num_clips=1, min_seconds=args.seconds, max_seconds=args.seconds, seed=1),
         0,
     )
     assert song.audio is not None and song.sample_rate is not None
@@ -271,7 +286,7 @@ def _child(name: str, args: argparse.Namespace) -> dict[str, Any]:
                 times[fmt] = round(time.perf_counter() - start, 2)
             result["write_outputs_s"] = times
     result["peak_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
-    result["seam_jump_m_s2"] = _seam_statistic(model, motion, run["schedule"], args.seconds)
+    result["seam_jump_m_s2"] = _seam_statistic(folder, model, motion, run["schedule"], args.seconds)
     return result
 
 
