@@ -348,3 +348,35 @@ def test_a_worker_trains_the_extractor_nobody_is_training_and_waits_only_to_scor
     assert trained == ["audio"]
     assert got == {"motion": "motion", "audio": "audio"}
     assert ctx.trained[motion.stem].startswith("reused")
+
+
+def test_every_process_passes_one_barrier_per_extractor_whatever_it_finds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Under ``accelerate launch`` with 2 processes the main process may finish a small extractor before
+    another process looks for it: that process must still pass the same barriers (one per extractor),
+    or it pairs with the next extractor's barrier and the processes hang (seen in the two-process Table 7
+    smoke test)."""
+    from types import SimpleNamespace
+
+    from omegaconf import OmegaConf
+
+    from momu.methods.momu import scoring
+
+    barriers: list[str] = []
+    ctx = RunContext(
+        accelerator=SimpleNamespace(  # type: ignore[arg-type]
+            num_processes=2, is_main_process=False, wait_for_everyone=lambda: barriers.append("barrier")
+        ),
+        out_dir=tmp_path,
+    )
+    ev = OmegaConf.create({"extractor_epochs": 1, "extractor_samples_per_clip": 1})
+    paths = scoring._extractor_paths(ctx, {"name": "d"}, ev, ("motion", "audio"))
+    paths["motion"].parent.mkdir(parents=True, exist_ok=True)
+    paths["motion"].write_bytes(b"")  # the main process has already written the motion extractor
+    monkeypatch.setattr(
+        scoring, "train_extractor", lambda *a, **k: pytest.fail("only the main process trains")
+    )
+    scoring._train_missing_extractors(ctx, None, ev, paths, wait=True)
+    assert barriers == ["barrier", "barrier"]
+    assert ctx.trained[paths["motion"].stem].startswith("reused")

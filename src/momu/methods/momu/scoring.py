@@ -295,10 +295,13 @@ def _train_missing_extractors(
         with ctx.lock(path.stem, wait=wait) as held:
             if not held:
                 continue
-            if path.is_file():
+            # every process passes one barrier per extractor, whatever it finds: the main process may
+            # finish a small extractor before another process looks for it, and a skipped barrier
+            # would pair with the next extractor's and leave the processes out of step (a hang)
+            reused = path.is_file()
+            if reused:
                 ctx.mark_reused(path.stem, path.with_suffix(".json"))  # the extractor's sidecar
-                continue
-            if ctx.accelerator.is_main_process:
+            elif ctx.accelerator.is_main_process:
                 if not clips:
                     clips.extend(dataset[i] for i in select_split(dataset, "train"))
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -315,7 +318,8 @@ def _train_missing_extractors(
                     else functools.partial(ctx.progress.side_step, kind + " extractor"),
                 )
             ctx.accelerator.wait_for_everyone()
-            ctx.trained[path.stem] = "trained"
+            if not reused:
+                ctx.trained[path.stem] = "trained"
 
 
 def _extractor_config(kind: str, embed: int) -> Any:
