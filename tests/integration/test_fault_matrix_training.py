@@ -108,6 +108,38 @@ def sigkill_before_the_first_checkpoint(tmp: Path, ref: Reference) -> None:
     _assert_same_weights(out, ref)
 
 
+def disk_fills_during_training_is_one_line_then_resume_finishes(tmp: Path, ref: Reference) -> None:
+    """The disk fills when the diffusion stage saves its weights: status 1 and one line naming the file,
+    no traceback, the first two stages kept; the same command with --resume, once there is space,
+    reuses them and ends with the uninterrupted run's weights."""
+    import contextlib
+    import errno
+    import io
+    from unittest import mock
+
+    import momu.engine.context as context
+
+    real = context.write_safetensors
+
+    def full(path: Path, *args: object, **kwargs: object) -> Path:
+        if "diffusion-" in str(path):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        return real(path, *args, **kwargs)  # type: ignore[arg-type]
+
+    out = tmp / "run"
+    err = io.StringIO()
+    with mock.patch.object(context, "write_safetensors", full), contextlib.redirect_stderr(err):
+        status = main(["train", "momu", "--out", str(out), *SMOKE, *NO_CHECKPOINTS])
+    assert status == 1
+    assert "Traceback" not in err.getvalue()
+    lines = [line for line in err.getvalue().splitlines() if "error:" in line]
+    assert len(lines) == 1 and "No space left on device" in lines[0] and "diffusion-" in lines[0], lines
+    assert len(list(out.glob("parts/*/model.safetensors"))) == 2 and not any(out.glob("models/*"))
+    done = proc.run(_train_argv(out, *NO_CHECKPOINTS, "--resume"))
+    assert done.status == 0, done.stderr[-3000:]
+    _assert_same_weights(out, ref)
+
+
 def sigkill_after_a_checkpoint(tmp: Path, ref: Reference) -> None:
     out = tmp / "run"
     killed = proc.run_and_signal(
@@ -506,6 +538,7 @@ def _bad_input_case(case: BadInput) -> Callable[[Path, Reference], None]:
 CASES: dict[str, Callable[[Path, Reference], None]] = {
     "sigkill-before-the-first-checkpoint": sigkill_before_the_first_checkpoint,
     "sigkill-after-a-checkpoint": sigkill_after_a_checkpoint,
+    "disk-fills-during-training": disk_fills_during_training_is_one_line_then_resume_finishes,
     "sigterm-checkpoints-then-resume-continues": sigterm_checkpoints_then_resume_continues,
     "ctrl-c-one-line-130": ctrl_c_is_one_line_and_status_130,
     "table-sigterm-during-extractor-training": table_sigterm_during_extractor_training_checkpoints_it,

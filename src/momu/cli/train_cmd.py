@@ -7,7 +7,8 @@
 
 The result is ``<out>/models/<method>-<hash>/``: ``momu generate dance --model <out>`` uses it.
 Exit status (docs/errors.md): 0 done, 2 a bad argument, key, value or data file (one line, nothing
-written), 143 stopped by SIGTERM and 130 by Ctrl-C (one line; a stage in training wrote a
+written), 1 the disk filled or failed during training (one line naming the file; finished stages
+are kept), 143 stopped by SIGTERM and 130 by Ctrl-C (one line; a stage in training wrote a
 checkpoint first: rerun with ``--resume`` to continue from it).
 """
 
@@ -76,5 +77,14 @@ def run(args: argparse.Namespace) -> int:
         return fail("momu train", exc)
     except Interrupted as exc:
         return stopped(f"momu train: {one_line(exc)}", exc.status)
+    except OSError as exc:  # after the work began: a full disk, a failing device (writes are atomic)
+        where = f"{exc.filename}: " if exc.filename else ""
+        reason = exc.strerror or one_line(exc)
+        return fail(
+            "momu train",
+            f"{where}{reason}; the stages finished so far are kept under --out: free space and rerun the "
+            "same command (with --resume to continue a stage from its last checkpoint)",
+            status=1,
+        )
     sys.stdout.write(f"{result.model}\n")
     return 0
