@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import pytest
+
 from momu.data.synth import SynthConfig, SynthDance
 from momu.encoders.dstformer import DSTformerConfig
-from momu.engine.progress import JobProgress
+from momu.engine.progress import JobProgress, SideWorkClock
 from momu.metrics.extractors import MotionClassifierConfig, TrainConfig, train_extractor
 
 
@@ -16,7 +18,10 @@ def test_side_work_is_shown_but_not_counted_as_planned_steps() -> None:
     assert fraction == 0.5
     progress.stage_done("diffusion", 100, "trained")
     progress.side_step("motion extractor", 7, 40)
-    assert progress._stage_text() == "motion extractor 7/40"
+    assert progress._stage_text() == "motion extractor 7/40"  # no rate yet
+    progress.side_step("motion extractor", 17, 40)
+    assert progress._stage_text().startswith("motion extractor 17/40, ")
+    assert progress._stage_text().endswith(" left")
     assert progress._running["row #1 seed 0"].fraction() == 1.0  # the extractor adds no planned work
     progress.finish_unit()
     assert progress.done == 1
@@ -38,3 +43,14 @@ def test_extractor_training_reports_every_optimizer_step() -> None:
     steps = seen[-1][1]
     assert [s for s, _ in seen] == list(range(1, steps + 1))
     assert steps >= 2 and all(total == steps for _, total in seen)
+
+
+def test_side_work_time_left_follows_its_own_rate(monkeypatch: pytest.MonkeyPatch) -> None:
+    import momu.engine.progress as progress
+
+    now = [100.0]
+    monkeypatch.setattr(progress.time, "monotonic", lambda: now[0])
+    clock = SideWorkClock()
+    assert clock.text("audio extractor", 10, 110) == "audio extractor 10/110"
+    now[0] = 120.0  # 20 s for 10 steps: the 90 steps left take 180 s
+    assert clock.text("audio extractor", 20, 110) == "audio extractor 20/110, 3 min 00 s left"

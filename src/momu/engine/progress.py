@@ -14,8 +14,9 @@ ETA for the whole job from the first unit's first steps on:
   finished, evaluation time is not in the estimate (it enters with the first finished unit); a
   config with no step-counted training shows its ETA after its first unit. The learned metrics'
   extractors (trained once per run by the first evaluation that needs them) show their steps on the
-  line (:meth:`JobProgress.side_step`) but are not in the planned work: their time enters the ETA
-  with the first finished unit.
+  line with the time they have left at their own rate (:meth:`JobProgress.side_step`) but are not in
+  the planned work: the job's ETA appears with the first stage's steps, and counts the extractors'
+  time as part of the units'.
 
 With ``--jobs N`` several units run at once in worker processes: each worker reports its unit's steps
 to the parent (:class:`momu.engine.table_workers.UnitReporter`), whose one bar follows them all
@@ -32,7 +33,7 @@ from typing import Any, Protocol
 
 from tqdm.auto import tqdm
 
-__all__ = ["JobProgress", "StageProgress", "planned_steps"]
+__all__ = ["JobProgress", "SideWorkClock", "StageProgress", "planned_steps"]
 
 _REFRESH_S = 1.0
 
@@ -54,6 +55,22 @@ def _duration(seconds: float) -> str:
     from momu.engine.table_units import format_duration
 
     return format_duration(seconds)
+
+
+class SideWorkClock:
+    """The line of work outside the planned steps (an extractor in training): its step and, from its
+    own rate so far, the time it has left (``motion extractor 300/2000, 2 min 10 s left``)."""
+
+    def __init__(self) -> None:
+        self._started: dict[str, tuple[float, int]] = {}
+
+    def text(self, name: str, step: int, steps: int) -> str:
+        now = time.monotonic()
+        start, first = self._started.setdefault(name, (now, step))
+        if step <= first or now <= start:
+            return f"{name} {step}/{steps}"
+        left = (now - start) / (step - first) * max(0, steps - step)
+        return f"{name} {step}/{steps}, {_duration(left)} left"
 
 
 class StageProgress(Protocol):
@@ -99,6 +116,7 @@ class JobProgress:
         self._running: dict[str, _RunningUnit] = {}
         self._latest = ""  # the unit stage_step / stage_done / finish_unit talk about
         self._last = 0.0
+        self._side = SideWorkClock()
 
     def start_unit(self, label: str, planned: int) -> None:
         """Unit ``label`` begins; ``planned`` is its optimizer steps (:func:`planned_steps`, 0: unknown)."""
@@ -121,7 +139,7 @@ class JobProgress:
         evaluation) is at ``step`` of ``steps``: shown on the line, not counted in the fraction done."""
         unit = self._running.get(self._latest)
         if unit is not None:
-            unit.stage = f"{name} {step}/{steps}"
+            unit.stage = self._side.text(name, step, steps)
         self._refresh()
 
     def stage_done(self, name: str, steps: int, how: str) -> None:

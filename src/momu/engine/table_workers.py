@@ -38,7 +38,7 @@ from omegaconf import DictConfig
 
 from momu.config import to_container
 from momu.engine.context import RunContext
-from momu.engine.progress import JobProgress, planned_steps
+from momu.engine.progress import JobProgress, SideWorkClock, planned_steps
 from momu.engine.signals import Interrupted
 from momu.engine.table_units import Unit, cell_name, evaluate_unit, format_duration
 from momu.errors import EXIT_PROBLEMS
@@ -144,6 +144,7 @@ class UnitReporter:
         self.report, self.unit, self.planned = report, unit, planned
         self._finished_steps = 0
         self._last = 0.0
+        self._side = SideWorkClock()
 
     def stage_step(self, name: str, step: int, steps: int) -> None:
         now = time.monotonic()
@@ -155,7 +156,7 @@ class UnitReporter:
         now = time.monotonic()
         if now - self._last >= REPORT_EVERY_S:
             self._last = now
-            self._send(self._finished_steps, f"{name} {step}/{steps}")
+            self._send(self._finished_steps, self._side.text(name, step, steps))
 
     def stage_done(self, name: str, steps: int, how: str) -> None:
         self._finished_steps += steps
