@@ -13,10 +13,10 @@ ETA for the whole job from the first unit's first steps on:
   units``, and the ETA is the time spent in units so far scaled to the rest. Until a unit has
   finished, evaluation time is not in the estimate (it enters with the first finished unit); a
   config with no step-counted training shows its ETA after its first unit. The learned metrics'
-  extractors (trained once per run by the first evaluation that needs them) show their steps on the
-  line with the time they have left at their own rate (:meth:`JobProgress.side_step`) but are not in
-  the planned work: the job's ETA appears with the first stage's steps, and counts the extractors'
-  time as part of the units'.
+  extractors (trained once per run by the first unit that needs them, before its stages) show their
+  steps with the time they have left at their own rate (:meth:`JobProgress.side_step`), and their
+  steps join that unit's planned work when they begin: the job's ETA is there from the extractors'
+  first steps (rough until the stages run: it prices a stage step like an extractor step).
 
 With ``--jobs N`` several units run at once in worker processes: each worker reports its unit's steps
 to the parent (:class:`momu.engine.table_workers.UnitReporter`), whose one bar follows them all
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from tqdm.auto import tqdm
@@ -91,6 +91,7 @@ class _RunningUnit:
     planned: int = 0
     finished_steps: int = 0
     current: int = 0
+    side: dict[str, bool] = field(default_factory=dict)  # side work in ``planned``: name -> finished
     stage: str = ""
 
     def fraction(self) -> float:
@@ -135,11 +136,20 @@ class JobProgress:
         self._refresh()
 
     def side_step(self, name: str, step: int, steps: int) -> None:
-        """Work of the latest unit outside its planned steps (a metric's extractor, trained by its first
-        evaluation) is at ``step`` of ``steps``: shown on the line, not counted in the fraction done."""
+        """Work of the latest unit outside its configured stages (a metric's extractor, trained by its
+        first evaluation) is at ``step`` of ``steps``: shown with its own time left, and its steps join
+        the unit's planned work when they begin, so the job has an ETA from its first minutes."""
         unit = self._running.get(self._latest)
         if unit is not None:
-            unit.stage = self._side.text(name, step, steps)
+            if name not in unit.side:
+                unit.side[name] = False
+                unit.planned += steps
+            if unit.side[name]:  # already finished and counted
+                return
+            unit.stage, unit.current = self._side.text(name, step, steps), step
+            if step >= steps:
+                unit.side[name] = True
+                unit.finished_steps, unit.current = unit.finished_steps + steps, 0
         self._refresh()
 
     def stage_done(self, name: str, steps: int, how: str) -> None:

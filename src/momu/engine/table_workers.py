@@ -145,6 +145,7 @@ class UnitReporter:
         self._finished_steps = 0
         self._last = 0.0
         self._side = SideWorkClock()
+        self._side_work: dict[str, bool] = {}  # name -> finished
 
     def stage_step(self, name: str, step: int, steps: int) -> None:
         now = time.monotonic()
@@ -153,10 +154,21 @@ class UnitReporter:
             self._send(self._finished_steps + step, f"{name} {step}/{steps}")
 
     def side_step(self, name: str, step: int, steps: int) -> None:
+        if name not in self._side_work:  # its steps join the unit's planned work (JobProgress.side_step)
+            self._side_work[name] = False
+            self.planned += steps
+        if self._side_work[name]:  # already finished and counted
+            return
+        text = self._side.text(name, step, steps)
+        if step >= steps:
+            self._side_work[name] = True
+            self._finished_steps += steps
+            self._send(self._finished_steps, text)
+            return
         now = time.monotonic()
         if now - self._last >= REPORT_EVERY_S:
             self._last = now
-            self._send(self._finished_steps, self._side.text(name, step, steps))
+            self._send(self._finished_steps + step, text)
 
     def stage_done(self, name: str, steps: int, how: str) -> None:
         self._finished_steps += steps
