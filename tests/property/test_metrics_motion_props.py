@@ -62,8 +62,11 @@ def test_fid_nonnegative_zero_on_identical_and_symmetric(seed: int, n: int, m: i
     assert fid(a, b) >= -tol
     assert fid(a, b, variant="mint") >= -tol
     assert abs(fid(a, a)) <= tol
-    # the unnormalised Fréchet distance is symmetric (tr √(Σ1Σ2) = tr √(Σ2Σ1))
-    assert abs(frechet_distance(a, b) - frechet_distance(b, a)) <= 1e-7 * (1.0 + abs(frechet_distance(a, b)))
+    # the unnormalised Fréchet distance is symmetric (tr √(Σ1Σ2) = tr √(Σ2Σ1)); with no more samples than
+    # dimensions a covariance is singular and sqrtm of the product is accurate to ~√ε, not ε
+    # (n = m = d = 4 gave a relative asymmetry of 2e-7)
+    rel = 1e-7 if min(n, m) > d else 1e-5
+    assert abs(frechet_distance(a, b) - frechet_distance(b, a)) <= rel * (1.0 + abs(frechet_distance(a, b)))
 
 
 @given(seeds, st.integers(2, 40))
