@@ -168,3 +168,24 @@ def test_bad_tempo_range_is_named(name: str) -> None:
         build_component({"name": name, "min_bpm": 150.0, "max_bpm": 100.0}, "encoders")
     with pytest.raises(ValueError, match=f"^{name}: max_bpm must be at least 2 x min_bpm"):
         build_component({"name": name, "min_bpm": 80.0, "max_bpm": 120.0}, "encoders")
+
+
+@pytest.mark.parametrize("period", [0.62, 0.62 / 1.25, 0.62 / 0.8])
+def test_periodogram_tempo_follows_a_stretched_movement(period: float) -> None:
+    """``tempo: periodogram`` gives beat_track the envelope's dominant period, so the tempo is the
+    movement's at any stretch (the tracker's own estimate leans towards its 120-BPM prior)."""
+    part = build_component({"name": "motion_rhythm", "tempo": "periodogram"}, "encoders")
+    features = part.features(stepping(period, seconds=12.0), 30.0, int(12.0 * FRAME_RATE), FRAME_RATE)
+    bpm = 60.0 / period
+    while bpm > part.cfg.max_bpm:  # folded into the encoder's range, as the tracker's tempo is
+        bpm /= 2
+    while bpm < part.cfg.min_bpm:
+        bpm *= 2
+    assert tempo_of(features) == pytest.approx(bpm, rel=0.05)
+
+
+def test_unknown_tempo_estimate_is_named() -> None:
+    with pytest.raises(
+        ValueError, match="^motion_rhythm: tempo must be one of tracker, periodogram, got 'fft'"
+    ):
+        build_component({"name": "motion_rhythm", "tempo": "fft"}, "encoders")

@@ -44,15 +44,18 @@ class RhythmEncoderConfig:
     Attributes:
         start_bpm, tightness: librosa.beat.beat_track's tempo prior and tightness.
         min_bpm, max_bpm: a tracked tempo outside the range is halved or doubled into it.
+        tempo: ``"tracker"`` (librosa estimates it) or ``"periodogram"`` (the envelope's dominant
+            period, which follows a time-stretch; :class:`momu.features.rhythm.RhythmConfig`).
     """
 
     start_bpm: float = 120.0
     tightness: float = 100.0
     min_bpm: float = 55.0
     max_bpm: float = 160.0
+    tempo: str = "tracker"
 
     def rhythm(self) -> RhythmConfig:
-        return RhythmConfig(self.start_bpm, self.tightness, self.min_bpm, self.max_bpm)
+        return RhythmConfig(self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo)
 
 
 @dataclass
@@ -60,6 +63,10 @@ class MotionRhythmConfig(RhythmEncoderConfig):
     """:class:`RhythmEncoderConfig` plus ``smoothing``: seconds of Gaussian smoothing of the joint speed."""
 
     smoothing: float = 0.03
+
+
+TEMPO_ESTIMATES = ("tracker", "periodogram")
+"""How a rhythm encoder estimates the tempo (:attr:`RhythmEncoderConfig.tempo`)."""
 
 
 def _check(name: str, cfg: RhythmEncoderConfig) -> None:
@@ -71,6 +78,8 @@ def _check(name: str, cfg: RhythmEncoderConfig) -> None:
         )
     if cfg.start_bpm <= 0 or cfg.tightness <= 0:
         raise ValueError(f"{name}: start_bpm and tightness must be > 0")
+    if cfg.tempo not in TEMPO_ESTIMATES:
+        raise ValueError(f"{name}: tempo must be one of {', '.join(TEMPO_ESTIMATES)}, got {cfg.tempo!r}")
 
 
 class MusicRhythm:
