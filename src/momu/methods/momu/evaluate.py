@@ -268,18 +268,26 @@ def evaluate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
     return scores
 
 
-def calibrate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Scores]:
-    """Ground-truth and shuffled-ground-truth rows of one seed through the same metric code."""
+def calibration_truth(
+    ctx: RunContext, cfg: DictConfig, kinds: Sequence[str] = ("motion", "audio")
+) -> tuple[Any, list[Clip], dict[str, float]]:
+    """What a calibration scores: the evaluation config, the ground-truth excerpts, and their
+    real-vs-real floors (FID / FAD with the trained extractors of ``kinds``)."""
     method = build_component(cfg.method, "methods")
     data_key = to_container(cfg.dataset)
     dataset = build_component(cfg.dataset, "datasets")
     ev = method.cfg.evaluation
     truth = _truth(ctx, dataset, data_key, ev, [float(ev.seconds)] * int(ev.num_clips))
     with ctx.timed("extractors"):
-        extractors = trained_extractors(ctx, dataset, data_key, ev)
+        extractors = trained_extractors(ctx, dataset, data_key, ev, kinds=kinds)
+    return ev, truth, _floors(ctx, extractors, dataset, data_key, ev, truth, kinds=kinds)
+
+
+def calibrate_momu(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Scores]:
+    """Ground-truth and shuffled-ground-truth rows of one seed through the same metric code."""
+    ev, truth, floors = calibration_truth(ctx, cfg)
     shuffled = _shuffled(truth)
     bins = float(ev.beat_bin_seconds)
-    floors = _floors(ctx, extractors, dataset, data_key, ev, truth)
     gt, shuf = Scores(metrics=dict(floors)), Scores(metrics=dict(floors))
     ids = excerpt_ids(truth)
     with ctx.timed("metrics"):

@@ -33,12 +33,12 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from momu.config import build_component, to_container
+from momu.config import to_container
 from momu.config.schema import FollowingConfig
 from momu.engine.context import RunContext
 from momu.engine.scores import ROW, Scores
 from momu.engine.table import Column, Row, TableSpec
-from momu.methods.momu.evaluate import _floors, _shuffled, _truth, check_rows, fit_momu
+from momu.methods.momu.evaluate import _floors, _shuffled, _truth, calibration_truth, check_rows, fit_momu
 from momu.methods.momu.generation import generate_motion
 from momu.methods.momu.recipes import BASE_CONFIG, PRESETS
 from momu.methods.momu.scoring import add_beat_scores, beat_components, eval_lengths, excerpt_ids, fid
@@ -259,16 +259,7 @@ def evaluate_mixing(ctx: RunContext, cfg: DictConfig, seed: int) -> Scores:
 
 def calibrate_mixing(ctx: RunContext, cfg: DictConfig, seed: int) -> dict[str, Scores]:
     """Ground truth (and shuffled ground truth for the beat F1) through the same metric code."""
-    from momu.methods.momu.scoring import trained_extractors
-
-    method = build_component(cfg.method, "methods")
-    data_key = to_container(cfg.dataset)
-    dataset = build_component(cfg.dataset, "datasets")
-    ev = method.cfg.evaluation
-    truth = _truth(ctx, dataset, data_key, ev, [float(ev.seconds)] * int(ev.num_clips))
-    with ctx.timed("extractors"):
-        extractors = trained_extractors(ctx, dataset, data_key, ev, kinds=("motion",))
-    floors = _floors(ctx, extractors, dataset, data_key, ev, truth, kinds=("motion",))
+    ev, truth, floors = calibration_truth(ctx, cfg, kinds=("motion",))
     bins = float(ev.beat_bin_seconds)
     ids = excerpt_ids(truth)
     gt, shuf = Scores(metrics=dict(floors)), Scores(metrics=dict(floors))
