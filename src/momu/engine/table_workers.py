@@ -159,16 +159,15 @@ class UnitReporter:
             self.planned += steps
         if self._side_work[name]:  # already finished and counted
             return
-        text = self._side.text(name, step, steps)
         if step >= steps:
             self._side_work[name] = True
             self._finished_steps += steps
-            self._send(self._finished_steps, text)
+            self._send(self._finished_steps, self._side.text(name, step, steps))
             return
         now = time.monotonic()
-        if now - self._last >= REPORT_EVERY_S:
+        if now - self._last >= REPORT_EVERY_S:  # the first step is sent: the clock starts there
             self._last = now
-            self._send(self._finished_steps + step, text)
+            self._send(self._finished_steps + step, self._side.text(name, step, steps))
 
     def stage_done(self, name: str, steps: int, how: str) -> None:
         self._finished_steps += steps
