@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from tests.unit.test_method_momu import TINY_VAE
 
 from momu.config import ConfigError, build_component, load_config
 from momu.encoders.mfcc import MfccEncoder, MfccEncoderConfig
@@ -21,15 +22,6 @@ from momu.methods.momu.conditions import Conditions
 from momu.methods.momu.decoded_losses import DecodedLosses, build_decoded_losses, loss_nodes
 from momu.methods.momu.stages import DiffusionStage
 
-TINY_VAE = {
-    "latent_channels": 4,
-    "base_channels": 8,
-    "channel_mult": [1, 2],
-    "num_res_blocks": 1,
-    "attention_layers": 0,
-    "attention_heads": 2,
-    "norm_groups": 4,
-}
 TINY_DIT = {"name": "dit", "hidden": 16, "heads": 2, "depth": 1, "cond_embed_dim": 16, "max_length": 64}
 JOINTS = 21  # dwm21, 3D
 
