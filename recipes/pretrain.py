@@ -2,6 +2,7 @@
 
     python recipes/pretrain.py [--work outputs/pretrain] [--skip-train] [--eval-seconds 15] [--seed 0]
     python recipes/pretrain.py --data ../shared/data/dance_with_melody --work runs/dwm   # not installed
+    python recipes/pretrain.py --seed 1 --override dataset.bpm_range=[60,160] --work runs/x  # a study
 
 1. ``momu train momu`` on ``synth_dance`` with the ``dwm21`` skeleton (3D, Dance with Melody's
    21 joints, 25 fps) and its four ballroom styles at the ``cpu`` preset, seed 0 — data anyone can
@@ -141,6 +142,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--seed", type=int, default=0, help="training seed (the shipped model: 0)")
     p.add_argument(
+        "--override",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a config override after the shipped ones (repeatable); a model trained with one is a "
+        "study, never installed",
+    )
+    p.add_argument(
         "--eval-seconds",
         type=float,
         default=15.0,
@@ -150,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     from momu.training import find_model, train_method
 
     command = ["python", "recipes/pretrain.py", *(argv if argv is not None else sys.argv[1:])]
-    overrides = [*(SYNTH_OVERRIDES if args.data == "synth" else []), *METHOD_OVERRIDES]
+    overrides = [*(SYNTH_OVERRIDES if args.data == "synth" else []), *METHOD_OVERRIDES, *args.override]
     if not args.skip_train:
         train_method(
             "momu",
@@ -162,9 +171,9 @@ def main(argv: list[str] | None = None) -> int:
             command=command,
         )
     model = find_model(args.work)
-    if args.data == "synth" and args.seed == 0:
+    if args.data == "synth" and args.seed == 0 and not args.override:
         installed = _install(model, args.work)
-    else:  # weights trained on research data (or another seed) stay in --work
+    else:  # weights trained on research data (or another seed, or a study's config) stay in --work
         installed = model
         _set_samplers(model)
     generator = "shipped" if installed != model else str(model)

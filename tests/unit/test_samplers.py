@@ -92,6 +92,45 @@ def test_guided_eps_is_eq7() -> None:
     )
 
 
+@pytest.mark.parametrize("name", ["cfg", "inpainting"])
+def test_guidance_interval_guides_only_the_steps_inside_it(name: str) -> None:
+    """``guidance_interval`` (Kynkäänniemi et al. 2024): steps at timesteps outside it are conditional
+    (one pass of B items, s = 1), steps inside are guided; an interval holding every step is plain CFG."""
+    cond = torch.randn(2, 10, 3)
+    node = {
+        "num_inference_steps": 4,
+        "guidance_scale": 5.0,
+        "scheduler": {"name": "ddpm", "timestep_spacing": "trailing"},
+    }
+
+    def run(params: dict[str, Any]) -> tuple[Tensor, list[int]]:
+        model = CountingBackbone(tiny_dit())
+        sampler = SAMPLERS.build(name, {**node, **params})
+        gens = [torch.Generator().manual_seed(s) for s in (1, 2)]
+        if name == "cfg":
+            return sampler.sample(model, (2, 10, 4), cond, generator=gens), model.calls
+        known, mask = torch.zeros(2, 10, 4), torch.zeros(2, 10, dtype=torch.bool)
+        return sampler.sample(model, known, mask, cond, generator=gens), model.calls
+
+    plain, calls = run({})
+    assert calls == [4, 4, 4, 4]
+    everywhere, _ = run({"guidance_interval": [0, 999]})
+    assert torch.equal(everywhere, plain)
+    conditional, _ = run({"guidance_scale": 1.0})
+    first_only, calls = run({"guidance_interval": [999, 999]})  # trailing DDPM steps: 999, 749, 499, 249
+    assert calls == [4, 2, 2, 2]  # the first step guided, the other three conditional
+    assert not torch.equal(first_only, plain) and not torch.equal(first_only, conditional)
+    with pytest.raises(ValueError, match="guidance_interval"):
+        SAMPLERS.build(name, {"guidance_interval": [500, 100]})
+
+
+def test_stitching_keeps_the_guidance_interval() -> None:
+    from momu.generation.stitching import inpainting_like
+
+    sampler = SAMPLERS.build("cfg", {"guidance_scale": 8.0, "guidance_interval": [250, 999]})
+    assert inpainting_like(sampler).interval == (250, 999)
+
+
 def test_sampling_is_reproducible_with_a_seeded_generator() -> None:
     model = tiny_dit()
     sampler = SAMPLERS.build("cfg", {"num_inference_steps": 3, "scheduler": {"name": "ddpm"}})

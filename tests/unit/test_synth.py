@@ -66,6 +66,22 @@ def test_styles_cycle_and_have_distinct_tempo_ranges() -> None:
         assert all(a[1] < b[0] for a, b in zip(ranges[:-1], ranges[1:], strict=True))
 
 
+def test_bpm_range_decouples_tempo_from_style() -> None:
+    """With ``bpm_range`` every style draws its tempo from the one range (a tempo augmentation), and
+    everything but the tempo is drawn as without it: the beat grid follows the drawn tempo."""
+    cfg = replace(SMALL, styles=["waltz", "quickstep"], num_clips=40, bpm_range=[60.0, 160.0])
+    by_style: dict[str, list[float]] = {"waltz": [], "quickstep": []}
+    for i in range(40):
+        clip = generate_clip(cfg, i)
+        by_style[str(clip.style)].append(clip.meta["bpm"])
+        np.testing.assert_allclose(np.diff(clip.meta["beat_times"]), 60.0 / clip.meta["bpm"])
+    waltz, quick = np.asarray(by_style["waltz"]), np.asarray(by_style["quickstep"])
+    assert waltz.min() >= 60.0 and quick.max() <= 160.0
+    assert waltz.max() > 136.0 and quick.min() < 84.0  # each style meets the other's range
+    plain = generate_clip(replace(cfg, bpm_range=None), 0)
+    assert plain.style == "waltz" and 60.0 <= plain.meta["bpm"] <= 84.0
+
+
 def test_ballroom_styles_travel_and_step_like_real_dancers() -> None:
     """Dance with Melody dancers travel 15-55 m/min with ankles near 0.7 m/s (issue 32); the in-place
     styles travel a few metres a minute at most."""
@@ -165,6 +181,9 @@ def test_splits_are_fixed_per_index_and_balanced_over_styles() -> None:
         ({"phase_jitter": -0.1}, "phase_jitter"),
         ({"amplitude_range": [1.0]}, "amplitude_range"),
         ({"root_centred": True, "skeleton": "openpose14"}, "root_centred"),
+        ({"bpm_range": [120.0, 90.0]}, "bpm_range"),
+        ({"bpm_range": [0.0, 90.0]}, "bpm_range"),
+        ({"bpm_range": [90.0]}, "bpm_range"),
     ],
 )
 def test_bad_config_names_the_field(change: dict, message: str) -> None:

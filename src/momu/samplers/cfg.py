@@ -17,6 +17,7 @@ from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
     Generators,
+    check_guidance_interval,
     guided_eps,
     make_noise,
     module_device,
@@ -39,6 +40,8 @@ class CFGConfig:
     Attributes:
         guidance_scale: s of MoMu Eq. 7 (the paper only states s > 1; 3.0 is the value of the
             Make-An-Audio line of latent audio diffusion MoMu builds on).
+        guidance_interval: ``[low, high]`` training timesteps where the guidance applies (the steps
+            outside are conditional, s = 1; :func:`momu.samplers.base.guided_eps`); ``None``: every step.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's (DDIM: 50, MoMu §5.1).
         scheduler: the scheduler node used when none is passed to the factory (default ``ddim``).
     """
@@ -46,6 +49,7 @@ class CFGConfig:
     guidance_scale: float = 3.0
     num_inference_steps: int | None = None
     scheduler: Any = field(default_factory=_default_scheduler)
+    guidance_interval: list[int] | None = None
 
 
 class CFGSampler:
@@ -54,6 +58,7 @@ class CFGSampler:
     def __init__(self, cfg: CFGConfig, scheduler: NoiseScheduler) -> None:
         self.cfg = cfg
         self.scheduler = scheduler
+        self.interval = check_guidance_interval(cfg.guidance_interval)
 
     @torch.no_grad()
     def sample(
@@ -91,7 +96,9 @@ class CFGSampler:
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
 
         def eps_fn(x: Tensor, t: Tensor) -> Tensor:
-            return guided_eps(backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask)
+            return guided_eps(
+                backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask, interval=self.interval
+            )
 
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         return reverse_loop(

@@ -30,6 +30,7 @@ from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
     Generators,
+    check_guidance_interval,
     guided_eps,
     make_noise,
     module_device,
@@ -57,6 +58,8 @@ class InpaintingConfig:
         seed_frames: S of seed-conditioned forecasting (MoFusion §4.4: 40 frames = 2 s).
         keyframe_interval: spacing of in-betweening keyframes in frames (not in the paper).
         guidance_scale: s of MoMu Eq. 7 for the conditional branch.
+        guidance_interval: ``[low, high]`` training timesteps where the guidance applies (the steps
+            outside are conditional, s = 1; :func:`momu.samplers.base.guided_eps`); ``None``: every step.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's.
         scheduler: the scheduler node used when none is passed to the factory.
     """
@@ -67,6 +70,7 @@ class InpaintingConfig:
     guidance_scale: float = 3.0
     num_inference_steps: int | None = None
     scheduler: Any = field(default_factory=_default_scheduler)
+    guidance_interval: list[int] | None = None
 
 
 def forecast_mask(batch: int, length: int, seed_frames: int) -> Tensor:
@@ -96,6 +100,7 @@ class InpaintingSampler:
             raise ValueError(f"inpainting.preset {cfg.preset!r} not one of {PRESETS}")
         self.cfg = cfg
         self.scheduler = scheduler
+        self.interval = check_guidance_interval(cfg.guidance_interval)
 
     def preset_mask(self, batch: int, length: int) -> Tensor:
         """The configured preset's ``(batch, length)`` known-frame mask."""
@@ -174,7 +179,9 @@ class InpaintingSampler:
             return keep_known(self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
 
         def eps_fn(x: Tensor, t: Tensor) -> Tensor:
-            return guided_eps(backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask)
+            return guided_eps(
+                backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask, interval=self.interval
+            )
 
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         out = reverse_loop(

@@ -81,6 +81,10 @@ class SynthConfig:
         root_centred: store motion relative to the root joint and the root's path in
             ``Clip.trajectory`` (3D skeletons only; DwM's convention).
         camera: virtual camera for 2D skeletons.
+        bpm_range: ``[low, high]`` beats per minute every clip draws its tempo from, whatever its
+            style (``None``: each style's own range, :attr:`Style.bpm`). A tempo augmentation: with
+            the ballroom styles' disjoint ranges the tempo tells the style, and a model can learn a
+            style's typical period instead of following the beats (issue 32).
     """
 
     num_clips: int = 64
@@ -103,6 +107,7 @@ class SynthConfig:
     trajectory_radius: float = 1.0
     root_centred: bool = False
     camera: CameraConfig = field(default_factory=CameraConfig)
+    bpm_range: list[float] | None = None
 
 
 def validate_config(cfg: SynthConfig) -> None:
@@ -136,6 +141,10 @@ def validate_config(cfg: SynthConfig) -> None:
         raise ValueError(
             f"amplitude_range must be [low, high] with 0 <= low <= high, got {cfg.amplitude_range}"
         )
+    if cfg.bpm_range is not None:
+        bpm = [float(x) for x in cfg.bpm_range]
+        if len(bpm) != 2 or not 0 < bpm[0] <= bpm[1]:
+            raise ValueError(f"bpm_range must be [low, high] with 0 < low <= high, got {cfg.bpm_range}")
     if cfg.root_centred and get_skeleton(cfg.skeleton).dims == 2:
         raise ValueError("root_centred applies to 3D skeletons only")
 
@@ -211,7 +220,7 @@ def generate_clip(cfg: SynthConfig, index: int) -> Clip:
     duration = num_frames / fps
     num_samples = int(round(duration * cfg.sample_rate))
 
-    bpm = float(rng.uniform(*style.bpm))
+    bpm = float(rng.uniform(*(style.bpm if cfg.bpm_range is None else cfg.bpm_range)))
     period = 60.0 / bpm
     first_beat = float(rng.uniform(0.1, 0.1 + period))
     first_index = int(rng.integers(style.beats_per_bar))
