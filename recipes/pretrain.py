@@ -44,9 +44,11 @@ SYNTH_OVERRIDES = [
     "dataset.skeleton=dwm21",
     "dataset.styles=[waltz,rumba,cha_cha,quickstep]",
     "dataset.trajectory_radius=4.0",
+    "dataset.bpm_range=[60,160]",
 ]
-"""synth_dance as the shipped model sees it: Dance with Melody's skeleton, the four ballroom styles
-(tempi 60-160 BPM), dancers travelling on a 4 m floor."""
+"""synth_dance as the shipped model sees it: Dance with Melody's skeleton, the four ballroom styles,
+each at any tempo from 60 to 160 BPM (``bpm_range``: the styles' own ranges are disjoint, so the tempo
+would tell the style), dancers travelling on a 4 m floor."""
 METHOD_OVERRIDES = [
     "method.motion_condition=music_rhythm",
     "method.music_condition=motion_rhythm",
@@ -55,8 +57,15 @@ METHOD_OVERRIDES = [
     "method.scheduler.prediction_type=v_prediction",
     "method.sampler.scheduler.prediction_type=v_prediction",
     "method.rigid_bones=true",
+    "method.motion_backbone.hidden=128",
+    "method.motion_backbone.depth=4",
+    "method.motion_backbone.cond_embed_dim=128",
+    "method.train_diffusion.steps=8000",
 ]
-"""The MoMu config changes that make the model follow its input (measured in issue 32)."""
+"""The MoMu config changes that make the model follow its input (measured in issue 32): rhythm
+conditions, root velocity, v-prediction, rigid bones, and θ_m as wide and deep as θ_a trained for
+8 000 steps (``benchmarks/results/momu_training_seeds_val``: the cpu preset's θ_m, 64 wide and 2 deep
+for 4 000 steps, followed a stretched song at one training seed of three)."""
 _SCHEDULER = {
     "name": "ddpm",
     "num_inference_steps": 100,
@@ -67,13 +76,22 @@ _SCHEDULER = {
 }
 SHIPPED_SAMPLERS = {
     "sampler": {"name": "cfg", "guidance_scale": 8.0, "scheduler": dict(_SCHEDULER)},
-    "motion_sampler": {"name": "cfg", "guidance_scale": 8.0, "scheduler": dict(_SCHEDULER)},
+    "motion_sampler": {
+        "name": "cfg",
+        "guidance_scale": 8.0,
+        "guidance_interval": [250, 999],
+        "scheduler": dict(_SCHEDULER),
+    },
     "music_sampler": {"name": "cfg", "guidance_scale": 5.0, "scheduler": dict(_SCHEDULER)},
 }
 """The shipped samplers (ancestral DDPM, 100 trailing steps, CFG; MoMu Eq. 7): guidance 8 for
 music→motion and 5 for motion→music, chosen on the Dance with Melody *validation* split (at guidance 4
 the dance's tempo slope interval reached 0.16; DDIM with η = 0 gave the same dance for every song);
-100 steps keep a 3-minute song under a minute on 2 cores (benchmarks/bench_long_song.py)."""
+the dance's guidance applies only at timesteps 250-999 (guidance in a limited interval, Kynkäänniemi
+et al. 2024): guided low-noise steps made the motion jerky (velocity-jump p95 30 m/s² against its
+training data's 13 on synth_dance songs of the training config; 14 with the interval, chosen there,
+not on the real songs); 100 steps keep a 3-minute song under a minute on 2 cores
+(benchmarks/bench_long_song.py)."""
 SEEDS = (0, 1, 2)
 
 log = logging.getLogger("pretrain")
