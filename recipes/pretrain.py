@@ -88,9 +88,9 @@ SHIPPED_SAMPLERS = {
 music→motion and 5 for motion→music, chosen on the Dance with Melody *validation* split (at guidance 4
 the dance's tempo slope interval reached 0.16; DDIM with η = 0 gave the same dance for every song);
 the dance's guidance applies only at timesteps 250-999 (guidance in a limited interval, Kynkäänniemi
-et al. 2024): guided low-noise steps made the motion jerky (velocity-jump p95 30 m/s² against its
-training data's 13 on synth_dance songs of the training config; 14 with the interval, chosen there,
-not on the real songs); 100 steps keep a 3-minute song under a minute on 2 cores
+et al. 2024): guided low-noise steps made the motion jerky (the cf67ad1 model: velocity-jump p95 30 m/s²
+against its training data's 13 on synth_dance songs of the training config; 14 with the interval,
+chosen there, not on the real songs); 100 steps keep a 3-minute song under a minute on 2 cores
 (benchmarks/bench_long_song.py)."""
 SEEDS = (0, 1, 2)
 
