@@ -169,7 +169,7 @@ def guided_eps(
     high`` and the step is conditional (``s = 1``) elsewhere: guidance in a limited interval
     (Kynkäänniemi et al. 2024, "Applying Guidance in a Limited Interval Improves Sample and
     Distribution Quality in Diffusion Models"). Guided low-noise steps add high-frequency detail,
-    which in a motion is jitter (docs/following.md).
+    which in a motion is jitter (docs/diffusion.md, "cfg").
 
     Args:
         x: ``(B, T, C)`` noisy sequence; ``t``: ``(B,)`` timesteps; ``cond``: ``(B, Tc, Cc)``.
