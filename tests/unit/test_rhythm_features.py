@@ -184,6 +184,26 @@ def test_periodogram_tempo_follows_a_stretched_movement(period: float) -> None:
     assert tempo_of(features) == pytest.approx(bpm, rel=0.05)
 
 
+def test_periodogram_searches_the_configured_tempi() -> None:
+    """``periodogram_bpm`` is where the periodogram looks: a 96.8-BPM stepping searched at 250-300 BPM
+    gives its third harmonic (290 BPM, folded to 145), searched at the default 20-200 its own tempo."""
+    motion = stepping(0.62, seconds=12.0)
+    tempi = []
+    for bounds in ([20.0, 200.0], [250.0, 300.0]):
+        node = {"name": "motion_rhythm", "tempo": "periodogram", "periodogram_bpm": bounds}
+        part = build_component(node, "encoders")
+        tempi.append(tempo_of(part.features(motion, 30.0, int(12.0 * FRAME_RATE), FRAME_RATE)))
+    assert tempi[0] == pytest.approx(60.0 / 0.62, rel=0.05)
+    assert tempi[1] == pytest.approx(3 * 60.0 / 0.62 / 2, rel=0.05)
+
+
+@pytest.mark.parametrize("name", ["music_rhythm", "motion_rhythm"])
+@pytest.mark.parametrize("bounds", [[200.0, 20.0], [0.0, 100.0], [60.0]])
+def test_bad_periodogram_range_is_named(name: str, bounds: list[float]) -> None:
+    with pytest.raises(ValueError, match=f"^{name}: periodogram_bpm must be \\[low, high\\]"):
+        build_component({"name": name, "periodogram_bpm": bounds}, "encoders")
+
+
 def test_unknown_tempo_estimate_is_named() -> None:
     with pytest.raises(
         ValueError, match="^motion_rhythm: tempo must be one of tracker, periodogram, got 'fft'"

@@ -13,7 +13,7 @@ the whole input at once (beat tracking needs context), then cut into windows by 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -46,6 +46,7 @@ class RhythmEncoderConfig:
         min_bpm, max_bpm: a tracked tempo outside the range is halved or doubled into it.
         tempo: ``"tracker"`` (librosa estimates it) or ``"periodogram"`` (the envelope's dominant
             period, which follows a time-stretch; :class:`momu.features.rhythm.RhythmConfig`).
+        periodogram_bpm: ``[low, high]`` tempi (BPM) the periodogram searches (``tempo: periodogram``).
     """
 
     start_bpm: float = 120.0
@@ -53,9 +54,12 @@ class RhythmEncoderConfig:
     min_bpm: float = 55.0
     max_bpm: float = 160.0
     tempo: str = "tracker"
+    periodogram_bpm: list[float] = field(default_factory=lambda: [20.0, 200.0])
 
     def rhythm(self) -> RhythmConfig:
-        return RhythmConfig(self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo)
+        low, high = (float(b) for b in self.periodogram_bpm)
+        bounds = (low, high)
+        return RhythmConfig(self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo, bounds)
 
 
 @dataclass
@@ -78,6 +82,9 @@ def _check(name: str, cfg: RhythmEncoderConfig) -> None:
         )
     if cfg.start_bpm <= 0 or cfg.tightness <= 0:
         raise ValueError(f"{name}: start_bpm and tightness must be > 0")
+    bounds = list(cfg.periodogram_bpm)
+    if len(bounds) != 2 or not 0 < float(bounds[0]) < float(bounds[1]):
+        raise ValueError(f"{name}: periodogram_bpm must be [low, high] with 0 < low < high, got {bounds}")
     if cfg.tempo not in TEMPO_ESTIMATES:
         raise ValueError(f"{name}: tempo must be one of {', '.join(TEMPO_ESTIMATES)}, got {cfg.tempo!r}")
 
