@@ -58,8 +58,9 @@ class RhythmEncoderConfig:
 
     def rhythm(self) -> RhythmConfig:
         low, high = (float(b) for b in self.periodogram_bpm)
-        bounds = (low, high)
-        return RhythmConfig(self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo, bounds)
+        return RhythmConfig(
+            self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo, (low, high)
+        )
 
 
 @dataclass

@@ -89,7 +89,7 @@ def track_beats(envelope: np.ndarray, rate: float, cfg: RhythmConfig | None = No
     if cfg.tempo == "periodogram":
         from momu.following.tempo import periodogram_tempo  # momu.following imports this module
 
-        bpm = periodogram_tempo(env, rate, (cfg.periodogram_bpm[0], cfg.periodogram_bpm[1]))
+        bpm = periodogram_tempo(env, rate, cfg.periodogram_bpm)
         if not np.isfinite(bpm):
             return np.zeros(0)
     _, frames = librosa.beat.beat_track(
