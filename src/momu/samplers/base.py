@@ -30,6 +30,8 @@ __all__ = [
     "module_device",
     "guided_eps",
     "check_guidance_interval",
+    "check_guidance_rescale",
+    "rescale_guided",
     "reverse_loop",
     "lengths_to_mask",
 ]
@@ -147,6 +149,43 @@ def check_guidance_interval(interval: Sequence[int] | None) -> tuple[int, int] |
     return int(values[0]), int(values[1])
 
 
+def check_guidance_rescale(rescale: float) -> float:
+    """``guidance_rescale`` as a float; a ``ValueError`` naming it unless ``0 <= rescale <= 1``."""
+    value = float(rescale)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(f"guidance_rescale must be in [0, 1], got {rescale}")
+    return value
+
+
+def rescale_guided(guided: Tensor, cond_out: Tensor, rescale: float, x_mask: Tensor | None = None) -> Tensor:
+    """Rescaled classifier-free guidance (Lin et al. 2024, "Common Diffusion Noise Schedules and Sample
+    Steps are Flawed", §3.4, Eq. 15-16): the guided output scaled to the conditional output's standard
+    deviation, ``x_rescaled = guided · σ(cond_out) / σ(guided)``, blended as
+    ``rescale · x_rescaled + (1 − rescale) · guided``. A large guidance scale inflates the guided
+    output's variance, which in a motion is limbs swung wider and faster than any training dance.
+
+    σ is taken per item over its valid frames (``x_mask``) and channels; without a mask it is
+    diffusers' ``rescale_noise_cfg``. ``rescale = 0`` returns ``guided`` unchanged.
+    """
+    if rescale == 0.0:
+        return guided
+    dims = tuple(range(1, guided.ndim))
+    if x_mask is None:
+        std_g = guided.std(dim=dims, keepdim=True)
+        std_c = cond_out.std(dim=dims, keepdim=True)
+    else:
+        w = x_mask.to(guided.dtype).reshape(*x_mask.shape, *([1] * (guided.ndim - 2))).expand_as(guided)
+        n = w.sum(dim=dims, keepdim=True).clamp_min(2.0)
+
+        def masked_std(v: Tensor) -> Tensor:
+            mean = (v * w).sum(dim=dims, keepdim=True) / n
+            return (((v - mean) ** 2 * w).sum(dim=dims, keepdim=True) / (n - 1)).sqrt()
+
+        std_g, std_c = masked_std(guided), masked_std(cond_out)
+    rescaled = guided * (std_c / std_g.clamp_min(1e-12))
+    return rescale * rescaled + (1.0 - rescale) * guided
+
+
 def guided_eps(
     backbone: Backbone,
     x: Tensor,
@@ -157,6 +196,7 @@ def guided_eps(
     x_mask: Tensor | None = None,
     cond_mask: Tensor | None = None,
     interval: tuple[int, int] | None = None,
+    rescale: float = 0.0,
 ) -> Tensor:
     """Classifier-free guidance, MoMu Eq. 7: ε̂ = ε(z_t, t, ∅) + s·(ε(z_t, t, c) − ε(z_t, t, ∅)).
 
@@ -169,11 +209,13 @@ def guided_eps(
     high`` and the step is conditional (``s = 1``) elsewhere: guidance in a limited interval
     (Kynkäänniemi et al. 2024, "Applying Guidance in a Limited Interval Improves Sample and
     Distribution Quality in Diffusion Models"). Guided low-noise steps add high-frequency detail,
-    which in a motion is jitter (docs/diffusion.md, "cfg").
+    which in a motion is jitter (docs/diffusion.md, "cfg"). ``rescale`` > 0 rescales the guided output
+    towards the conditional one's standard deviation (:func:`rescale_guided`).
 
     Args:
         x: ``(B, T, C)`` noisy sequence; ``t``: ``(B,)`` timesteps; ``cond``: ``(B, Tc, Cc)``.
         scale: guidance scale s (1 = conditional, 0 = unconditional).
+        rescale: φ of rescaled guidance in [0, 1] (0: plain Eq. 7).
     """
     b = x.shape[0]
     if interval is not None and cond is not None:
@@ -198,7 +240,7 @@ def guided_eps(
         drop_cond=drop,
     )
     eps_c, eps_u = out.chunk(2)
-    return eps_u + scale * (eps_c - eps_u)
+    return rescale_guided(eps_u + scale * (eps_c - eps_u), eps_c, rescale, x_mask)
 
 
 def reverse_loop(

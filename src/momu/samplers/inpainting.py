@@ -31,6 +31,7 @@ from momu.samplers.base import (
     Backbone,
     Generators,
     check_guidance_interval,
+    check_guidance_rescale,
     guided_eps,
     make_noise,
     module_device,
@@ -60,6 +61,9 @@ class InpaintingConfig:
         guidance_scale: s of MoMu Eq. 7 for the conditional branch.
         guidance_interval: ``[low, high]`` training timesteps where the guidance applies (the steps
             outside are conditional, s = 1; :func:`momu.samplers.base.guided_eps`); ``None``: every step.
+        guidance_rescale: φ of rescaled guidance (Lin et al. 2024 §3.4,
+            :func:`momu.samplers.base.rescale_guided`): 0 (default) is plain Eq. 7, 1 scales the
+            guided output to the conditional output's standard deviation.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's.
         scheduler: the scheduler node used when none is passed to the factory.
     """
@@ -71,6 +75,7 @@ class InpaintingConfig:
     num_inference_steps: int | None = None
     scheduler: Any = field(default_factory=_default_scheduler)
     guidance_interval: list[int] | None = None
+    guidance_rescale: float = 0.0
 
 
 def forecast_mask(batch: int, length: int, seed_frames: int) -> Tensor:
@@ -101,6 +106,7 @@ class InpaintingSampler:
         self.cfg = cfg
         self.scheduler = scheduler
         self.interval = check_guidance_interval(cfg.guidance_interval)
+        self.rescale = check_guidance_rescale(cfg.guidance_rescale)
 
     def preset_mask(self, batch: int, length: int) -> Tensor:
         """The configured preset's ``(batch, length)`` known-frame mask."""
@@ -180,7 +186,15 @@ class InpaintingSampler:
 
         def eps_fn(x: Tensor, t: Tensor) -> Tensor:
             return guided_eps(
-                backbone, x, t, cond, scale, x_mask=x_mask, cond_mask=cond_mask, interval=self.interval
+                backbone,
+                x,
+                t,
+                cond,
+                scale,
+                x_mask=x_mask,
+                cond_mask=cond_mask,
+                interval=self.interval,
+                rescale=self.rescale,
             )
 
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps

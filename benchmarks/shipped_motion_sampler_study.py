@@ -1,0 +1,124 @@
+"""Which music → dance sampler settings should the shipped model use? Validation split, every training seed.
+
+    python benchmarks/shipped_motion_sampler_study.py --models SEED0_DIR SEED1_DIR SEED2_DIR \
+        --variants 8:0 5:0 8:0.7 --data ../shared/data/dance_with_melody --out OUT
+
+For each model folder (one per training seed of ``recipes/pretrain.py``) and each variant
+``SCALE:RESCALE`` — the motion sampler's ``guidance_scale`` and ``guidance_rescale`` (rescaled guidance,
+Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`); everything else as shipped — a copy
+of the folder with that ``motion_sampler`` is scored by the music-following benchmark
+(``recipes/music_following.py``, music → dance, the **validation** split, 15-s excerpts, generation
+seeds 0 1 2, no controls) into ``OUT/<variant>_seed<k>/music_following``. ``OUT/summary.{json,md}``
+collects, per variant and training seed, the verdicts and intervals of input sensitivity and tempo
+following and the realism statistics, and per variant the study's rule
+(``benchmarks/results/shipped_motion_sampler_val/README.md``): whether it passes every test and check
+at every training seed, and its mean foot speed's |log ratio| to the real dances' median.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from momu.following.run import main as benchmark
+
+log = logging.getLogger("shipped_motion_sampler_study")
+TESTS = ("input_sensitivity", "tempo_following")
+REALISM = ("root_travel_m_per_min", "foot_speed", "joint_speed", "bone_length_cv")
+
+
+def _variant(text: str) -> tuple[float, float]:
+    scale, _, rescale = text.partition(":")
+    return float(scale), float(rescale or 0.0)
+
+
+def _with_sampler(model: Path, scale: float, rescale: float, into: Path) -> Path:
+    """A copy of ``model`` whose ``motion_sampler`` has ``guidance_scale`` and ``guidance_rescale``."""
+    dst = into / model.name
+    shutil.copytree(model, dst)
+    meta = json.loads((dst / "momu.json").read_text())
+    node = meta["config"]["motion_sampler"]
+    node["guidance_scale"], node["guidance_rescale"] = scale, rescale
+    (dst / "momu.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return dst
+
+
+def _cell(d: dict[str, Any]) -> str:
+    return f"{d['estimate']:.3f} [{d['low']:.3f}, {d['high']:.3f}] {d.get('verdict', '')}"
+
+
+def _summary(out: Path, names: list[str], seeds: int) -> None:
+    rows: list[dict[str, Any]] = []
+    variants: list[dict[str, Any]] = []
+    for name in names:
+        passes, feet, median = True, [], float("nan")
+        for k in range(seeds):
+            res = json.loads((out / f"{name}_seed{k}" / "music_following" / "results.json").read_text())
+            direction = res["directions"]["dance"]
+            row = next(r for r in direction["rows"] if r["kind"] == "generator")
+            checks = [row["tests"][t] for t in TESTS] + [row["realism"][m] for m in REALISM]
+            passes = passes and all(d.get("verdict") == "passes" for d in checks)
+            feet.append(row["realism"]["foot_speed"]["estimate"])
+            median = direction["reference_realism"]["foot_speed"]["median"]
+            cells = {t: _cell(row["tests"][t]) for t in TESTS}
+            cells.update({m: _cell(row["realism"][m]) for m in REALISM})
+            rows.append({"variant": name, "training_seed": k, **cells})
+        foot = float(np.mean(feet))
+        variants.append(
+            {
+                "variant": name,
+                "passes_at_every_seed": passes,
+                "mean_foot_speed": round(foot, 3),
+                "real_median_foot_speed": round(median, 3),
+                "abs_log_ratio": round(abs(float(np.log(foot / median))), 4),
+            }
+        )
+    (out / "summary.json").write_text(json.dumps({"runs": rows, "variants": variants}, indent=2) + "\n")
+    lines = []
+    for table in (rows, variants):
+        head = list(table[0])
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        lines += ["| " + " | ".join(str(r[h]) for h in head) + " |" for r in table] + [""]
+    (out / "summary.md").write_text("\n".join(lines))
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--models", type=Path, nargs="+", required=True, help="model folders, training seed order")
+    p.add_argument("--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE of the motion sampler")
+    p.add_argument("--data", default="../shared/data/dance_with_melody")
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--summary-only", action="store_true", help="only rewrite OUT/summary.{json,md}")
+    args = p.parse_args()
+    names = []
+    for text in args.variants:
+        scale, rescale = _variant(text)
+        name = f"scale{scale:g}_rescale{rescale:g}"
+        names.append(name)
+        for k, model in enumerate(args.models):
+            run = args.out / f"{name}_seed{k}"
+            if args.summary_only or (run / "music_following" / "results.json").exists():
+                continue
+            with tempfile.TemporaryDirectory() as tmp:
+                folder = _with_sampler(model, scale, rescale, Path(tmp))
+                log.info("%s, training seed %d", name, k)
+                code = benchmark(
+                    ["--generator", str(folder), "--direction", "dance", "--data", args.data]
+                    + ["--split", "val", "--songs", "8", "--seconds", "15", "--seeds", "0", "1", "2"]
+                    + ["--no-controls", "--quiet", "--out", str(run)]
+                )
+            if code:
+                raise SystemExit(code)
+    _summary(args.out, names, len(args.models))
+
+
+if __name__ == "__main__":
+    main()
