@@ -183,8 +183,8 @@ def test_stitching_keeps_the_guidance_interval() -> None:
     sampler = SAMPLERS.build(
         "cfg", {"guidance_scale": 8.0, "guidance_interval": [250, 999], "guidance_rescale": 0.7}
     )
-    assert inpainting_like(sampler).interval == (250, 999)
-    assert inpainting_like(sampler).rescale == 0.7
+    assert inpainting_like(sampler).guidance.interval == (250, 999)
+    assert inpainting_like(sampler).guidance.rescale == 0.7
 
 
 def test_sampling_is_reproducible_with_a_seeded_generator() -> None:

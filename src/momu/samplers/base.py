@@ -14,6 +14,7 @@ frames are held at zero and never influence valid frames.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import torch
@@ -31,6 +32,7 @@ __all__ = [
     "guided_eps",
     "check_guidance_interval",
     "check_guidance_rescale",
+    "Guidance",
     "rescale_guided",
     "reverse_loop",
     "lengths_to_mask",
@@ -241,6 +243,47 @@ def guided_eps(
     )
     eps_c, eps_u = out.chunk(2)
     return rescale_guided(eps_u + scale * (eps_c - eps_u), eps_c, rescale, x_mask)
+
+
+@dataclass(frozen=True)
+class Guidance:
+    """A guidance sampler's checked ``guidance_interval`` and ``guidance_rescale``
+    (:func:`guided_eps`)."""
+
+    interval: tuple[int, int] | None = None
+    rescale: float = 0.0
+
+    @classmethod
+    def of(cls, cfg: Any) -> Guidance:
+        """From a sampler config with ``guidance_interval`` and ``guidance_rescale``."""
+        interval = check_guidance_interval(cfg.guidance_interval)
+        return cls(interval, check_guidance_rescale(cfg.guidance_rescale))
+
+    def eps_fn(
+        self,
+        backbone: Backbone,
+        cond: Tensor | None,
+        scale: float,
+        *,
+        x_mask: Tensor | None = None,
+        cond_mask: Tensor | None = None,
+    ) -> EpsFn:
+        """The guided ε̂ (MoMu Eq. 7 with these settings) a reverse loop steps with."""
+
+        def eps(x: Tensor, t: Tensor) -> Tensor:
+            return guided_eps(
+                backbone,
+                x,
+                t,
+                cond,
+                scale,
+                x_mask=x_mask,
+                cond_mask=cond_mask,
+                interval=self.interval,
+                rescale=self.rescale,
+            )
+
+        return eps
 
 
 def reverse_loop(

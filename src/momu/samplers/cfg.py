@@ -17,9 +17,7 @@ from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
     Generators,
-    check_guidance_interval,
-    check_guidance_rescale,
-    guided_eps,
+    Guidance,
     make_noise,
     module_device,
     resolve_scheduler,
@@ -63,8 +61,7 @@ class CFGSampler:
     def __init__(self, cfg: CFGConfig, scheduler: NoiseScheduler) -> None:
         self.cfg = cfg
         self.scheduler = scheduler
-        self.interval = check_guidance_interval(cfg.guidance_interval)
-        self.rescale = check_guidance_rescale(cfg.guidance_rescale)
+        self.guidance = Guidance.of(cfg)
 
     @torch.no_grad()
     def sample(
@@ -101,18 +98,7 @@ class CFGSampler:
             raise ValueError(f"noise: {x_T.shape[-1]} channels, backbone expects {backbone.in_channels}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
 
-        def eps_fn(x: Tensor, t: Tensor) -> Tensor:
-            return guided_eps(
-                backbone,
-                x,
-                t,
-                cond,
-                scale,
-                x_mask=x_mask,
-                cond_mask=cond_mask,
-                interval=self.interval,
-                rescale=self.rescale,
-            )
+        eps_fn = self.guidance.eps_fn(backbone, cond, scale, x_mask=x_mask, cond_mask=cond_mask)
 
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         return reverse_loop(

@@ -30,9 +30,7 @@ from momu.registry import SAMPLERS
 from momu.samplers.base import (
     Backbone,
     Generators,
-    check_guidance_interval,
-    check_guidance_rescale,
-    guided_eps,
+    Guidance,
     make_noise,
     module_device,
     resolve_scheduler,
@@ -105,8 +103,7 @@ class InpaintingSampler:
             raise ValueError(f"inpainting.preset {cfg.preset!r} not one of {PRESETS}")
         self.cfg = cfg
         self.scheduler = scheduler
-        self.interval = check_guidance_interval(cfg.guidance_interval)
-        self.rescale = check_guidance_rescale(cfg.guidance_rescale)
+        self.guidance = Guidance.of(cfg)
 
     def preset_mask(self, batch: int, length: int) -> Tensor:
         """The configured preset's ``(batch, length)`` known-frame mask."""
@@ -184,18 +181,7 @@ class InpaintingSampler:
             t = torch.full((known.shape[0],), t_int, dtype=torch.long, device=device)
             return keep_known(self.scheduler.add_noise(known, eps, t), x)  # P^(t) on the known frames
 
-        def eps_fn(x: Tensor, t: Tensor) -> Tensor:
-            return guided_eps(
-                backbone,
-                x,
-                t,
-                cond,
-                scale,
-                x_mask=x_mask,
-                cond_mask=cond_mask,
-                interval=self.interval,
-                rescale=self.rescale,
-            )
+        eps_fn = self.guidance.eps_fn(backbone, cond, scale, x_mask=x_mask, cond_mask=cond_mask)
 
         steps = num_inference_steps if num_inference_steps is not None else self.cfg.num_inference_steps
         out = reverse_loop(
