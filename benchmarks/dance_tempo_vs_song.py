@@ -22,6 +22,13 @@ tempo-following slope.
 (``recipes/pretrain.py``'s ``SYNTH_OVERRIDES``: Dance with Melody's skeleton, the four ballroom styles,
 60-160 BPM, a 4-m floor): how the synthetic dancers' dominant period relates to their song's beat,
 which is what θ_a learns to answer.
+
+Ceiling of the music's tempo match (the benchmark's dance → music ``tempo_match``: own song's tempo
+matched minus the other songs' of the same split, :func:`momu.following.checks.pair_tests`): a music
+written exactly at ``m`` times the dance's tempo, for ``m`` in :data:`MULTIPLES` (and ``m`` chosen per
+style: 3 for a waltz's bar, 2 otherwise), scored against the songs of each split. Ground truth (the song
+itself) passes this test by identity; the ceiling says what any music derived from the dance's tempo
+alone can reach.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, motion_envelope, track_beats
 from momu.following.analysis import analyse_audio, analyse_motion
 from momu.following.inputs import FACTORS
+from momu.following.pairs import DWM_SPLIT
 from momu.following.signals import time_scale_motion
 from momu.following.tempo import beat_tempo, fold_ratio, tempo_matches
 
@@ -51,6 +59,8 @@ SYNTH = {
     "seed": 0,
 }
 """``synth_dance`` as the shipped model sees it (``recipes/pretrain.py``'s ``SYNTH_OVERRIDES``)."""
+MULTIPLES = (1, 2, 3, 4, 6)
+"""Multiples of the dance's tempo tried as the music's (the ceiling above)."""
 log = logging.getLogger("dance_tempo_vs_song")
 
 
@@ -64,13 +74,38 @@ def _followed(ratio: float, factor: float) -> bool:
     return abs(fold_ratio(ratio) / factor - 1.0) <= 0.05
 
 
+def _style_multiple(dance_id: str) -> int:
+    """3 for a waltz (Dance with Melody's ``DANCE_W_*``: the dancer's period is the bar), else 2."""
+    return 3 if dance_id.split("_")[1:2] == ["W"] else 2
+
+
+def tempo_match_ceiling(rows: list[dict], key: str) -> dict[str, dict[str, float]]:
+    """Per split and multiple: the mean over dances of ``tempo_match`` for music at ``multiple ×`` the
+    dance's tempo ``row[key]`` (own song matched − the share of the split's other songs matched)."""
+    out: dict[str, dict[str, float]] = {}
+    for split in sorted({r["split"] for r in rows}):
+        group = [r for r in rows if r["split"] == split]
+        if len(group) < 2:
+            continue
+        scores: dict[str, float] = {}
+        for m in (*MULTIPLES, "style"):
+            per = []
+            for r in group:
+                music = r[key] * (_style_multiple(r["id"]) if m == "style" else m)
+                others = [tempo_matches(music, o["song_bpm"]) for o in group if o is not r]
+                per.append(float(tempo_matches(music, r["song_bpm"])) - float(np.mean(others)))
+            scores[f"x{m}"] = round(float(np.mean(per)), 3)
+        out[split] = scores
+    return out
+
+
 def main() -> None:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", default="../shared/data/dance_with_melody", help="a folder, or synth")
     p.add_argument("--out", type=Path, default=Path("benchmarks/results/dance_tempo_vs_song.json"))
     args = p.parse_args()
-    node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all"}
+    node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
     if args.data == "synth":
         node = {**SYNTH, "min_seconds": START_S + SECONDS + 1.0, "max_seconds": START_S + SECONDS + 1.0}
     ds = build_component(node, "datasets")
@@ -92,6 +127,7 @@ def main() -> None:
         rows.append(
             {
                 "id": clip.id,
+                "split": clip.meta.get("split", "all"),
                 "song_bpm": round(float(song), 1),
                 "motion_rhythm_bpm": round(float(tracked), 1),
                 "periodogram_bpm": round(float(periodogram), 1),
@@ -115,6 +151,9 @@ def main() -> None:
     }
     for key in ("motion_rhythm_follows", "motion_rhythm_periodogram_follows", "periodogram_follows"):
         summary[key + "_stretch"] = f"{sum(sum(r[key]) for r in rows)} of {len(rows) * len(FACTORS)}"
+    if args.data != "synth":
+        for key in ("periodogram_bpm", "motion_rhythm_periodogram_bpm"):
+            summary[f"tempo_match_ceiling_{key}"] = tempo_match_ceiling(rows, key)
     log.info("%s", summary)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(

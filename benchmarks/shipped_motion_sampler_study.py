@@ -1,11 +1,12 @@
 """Which music → dance sampler settings should the shipped model use? Validation split, every training seed.
 
     python benchmarks/shipped_motion_sampler_study.py --models SEED0_DIR SEED1_DIR SEED2_DIR \
-        --variants 8:0 5:0 8:0.7 --data ../shared/data/dance_with_melody --out OUT
+        --variants 8:0 5:0 8:0.7 8:0:500-999 --data ../shared/data/dance_with_melody --out OUT
 
 For each model folder (one per training seed of ``recipes/pretrain.py``) and each variant
-``SCALE:RESCALE`` — the motion sampler's ``guidance_scale`` and ``guidance_rescale`` (rescaled guidance,
-Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`); everything else as shipped — a copy
+``SCALE:RESCALE[:LOW-HIGH]`` — the motion sampler's ``guidance_scale``, ``guidance_rescale`` (rescaled
+guidance, Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`) and, when given, its
+``guidance_interval`` (training timesteps); everything else as shipped — a copy
 of the folder with that ``motion_sampler`` is scored by the music-following benchmark
 (``recipes/music_following.py``, music → dance, the **validation** split, 15-s excerpts, generation
 seeds 0 1 2, no controls) into ``OUT/<variant>_seed<k>/music_following``. ``OUT/summary.{json,md}``
@@ -34,20 +35,32 @@ TESTS = ("input_sensitivity", "tempo_following")
 REALISM = ("root_travel_m_per_min", "foot_speed", "joint_speed", "bone_length_cv")
 
 
-def _variant(text: str) -> tuple[float, float]:
-    scale, _, rescale = text.partition(":")
-    return float(scale), float(rescale or 0.0)
+def _variant(text: str) -> tuple[str, dict[str, Any]]:
+    """``SCALE:RESCALE[:LOW-HIGH]`` as a run name and the ``motion_sampler`` fields it sets."""
+    scale, rescale, *interval = text.split(":")
+    fields: dict[str, Any] = {"guidance_scale": float(scale), "guidance_rescale": float(rescale or 0.0)}
+    name = f"scale{fields['guidance_scale']:g}_rescale{fields['guidance_rescale']:g}"
+    if interval:
+        low, high = (int(v) for v in interval[0].split("-"))
+        fields["guidance_interval"] = [low, high]
+        name += f"_interval{low}-{high}"
+    return name, fields
 
 
-def _with_sampler(model: Path, scale: float, rescale: float, into: Path) -> Path:
-    """A copy of ``model`` whose ``motion_sampler`` has ``guidance_scale`` and ``guidance_rescale``."""
+def _with_sampler(model: Path, fields: dict[str, Any], into: Path) -> Path:
+    """A copy of ``model`` whose ``motion_sampler`` has ``fields``."""
     dst = into / model.name
     shutil.copytree(model, dst)
     meta = json.loads((dst / "momu.json").read_text())
-    node = meta["config"]["motion_sampler"]
-    node["guidance_scale"], node["guidance_rescale"] = scale, rescale
+    meta["config"]["motion_sampler"].update(fields)
     (dst / "momu.json").write_text(json.dumps(meta, indent=2) + "\n")
     return dst
+
+
+def _results(run: Path) -> Path:
+    """A run's ``results.json``: as the benchmark writes it, or moved up as committed."""
+    written = run / "music_following" / "results.json"
+    return written if written.exists() else run / "results.json"
 
 
 def _cell(d: dict[str, Any]) -> str:
@@ -58,14 +71,15 @@ def _summary(out: Path, names: list[str], seeds: int) -> None:
     rows: list[dict[str, Any]] = []
     variants: list[dict[str, Any]] = []
     for name in names:
-        passes, feet, median = True, [], float("nan")
+        passes, feet, sensitivity, median = True, [], [], float("nan")
         for k in range(seeds):
-            res = json.loads((out / f"{name}_seed{k}" / "music_following" / "results.json").read_text())
+            res = json.loads(_results(out / f"{name}_seed{k}").read_text())
             direction = res["directions"]["dance"]
             row = next(r for r in direction["rows"] if r["kind"] == "generator")
             checks = [row["tests"][t] for t in TESTS] + [row["realism"][m] for m in REALISM]
             passes = passes and all(d.get("verdict") == "passes" for d in checks)
             feet.append(row["realism"]["foot_speed"]["estimate"])
+            sensitivity.append(row["tests"]["input_sensitivity"]["estimate"])
             median = direction["reference_realism"]["foot_speed"]["median"]
             cells = {t: _cell(row["tests"][t]) for t in TESTS}
             cells.update({m: _cell(row["realism"][m]) for m in REALISM})
@@ -75,6 +89,7 @@ def _summary(out: Path, names: list[str], seeds: int) -> None:
             {
                 "variant": name,
                 "passes_at_every_seed": passes,
+                "mean_input_sensitivity": round(float(np.mean(sensitivity)), 3),
                 "mean_foot_speed": round(foot, 3),
                 "real_median_foot_speed": round(median, 3),
                 "abs_log_ratio": round(abs(float(np.log(foot / median))), 4),
@@ -93,22 +108,23 @@ def main() -> None:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--models", type=Path, nargs="+", required=True, help="model folders, training seed order")
-    p.add_argument("--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE of the motion sampler")
+    p.add_argument(
+        "--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE[:LOW-HIGH] of the motion sampler"
+    )
     p.add_argument("--data", default="../shared/data/dance_with_melody")
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--summary-only", action="store_true", help="only rewrite OUT/summary.{json,md}")
     args = p.parse_args()
     names = []
     for text in args.variants:
-        scale, rescale = _variant(text)
-        name = f"scale{scale:g}_rescale{rescale:g}"
+        name, fields = _variant(text)
         names.append(name)
         for k, model in enumerate(args.models):
             run = args.out / f"{name}_seed{k}"
-            if args.summary_only or (run / "music_following" / "results.json").exists():
+            if args.summary_only or _results(run).exists():
                 continue
             with tempfile.TemporaryDirectory() as tmp:
-                folder = _with_sampler(model, scale, rescale, Path(tmp))
+                folder = _with_sampler(model, fields, Path(tmp))
                 log.info("%s, training seed %d", name, k)
                 code = benchmark(
                     ["--generator", str(folder), "--direction", "dance", "--data", args.data]
