@@ -77,7 +77,7 @@ def _followed(ratio: float, factor: float) -> bool:
 
 def _style_multiple(dance_id: str) -> int:
     """3 for a waltz (Dance with Melody's ``DANCE_W_*``: the dancer's period is the bar), else 2."""
-    return 3 if dance_id.split("_")[1:2] == ["W"] else 2
+    return 3 if "_W_" in dance_id else 2
 
 
 def tempo_match_ceiling(rows: list[dict], key: str) -> dict[str, dict[str, list[float]]]:

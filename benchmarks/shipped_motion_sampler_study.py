@@ -37,11 +37,12 @@ REALISM = ("root_travel_m_per_min", "foot_speed", "joint_speed", "bone_length_cv
 
 def _variant(text: str) -> tuple[str, dict[str, Any]]:
     """``SCALE:RESCALE[:LOW-HIGH]`` as a run name and the ``motion_sampler`` fields it sets."""
-    scale, rescale, *interval = text.split(":")
+    scale, _, rest = text.partition(":")
+    rescale, _, interval = rest.partition(":")
     fields: dict[str, Any] = {"guidance_scale": float(scale), "guidance_rescale": float(rescale or 0.0)}
     name = f"scale{fields['guidance_scale']:g}_rescale{fields['guidance_rescale']:g}"
     if interval:
-        low, high = (int(v) for v in interval[0].split("-"))
+        low, high = (int(v) for v in interval.split("-"))
         fields["guidance_interval"] = [low, high]
         name += f"_interval{low}-{high}"
     return name, fields
