@@ -209,6 +209,7 @@ def test_dit_pad_to_max_is_a_no_op(positions: str) -> None:
         ({"positions": "relative"}, "positions"),
         ({"positions": "aligned", "segment_embeddings": False}, "segment_embeddings"),
         ({"cond_tokens": False}, "cond_add"),
+        ({"cond_every_block": True}, "cond_every_block=true needs dit.cond_add"),
     ],
 )
 def test_dit_config_errors(kw: dict[str, object], match: str) -> None:
@@ -223,6 +224,25 @@ def test_additive_conditioning_attends_over_latent_frames_and_the_timestep_only(
         block.attn.recorder = weights
     model(torch.randn(2, 10, 4), torch.tensor([3, 4]), torch.randn(2, 10, 3))
     assert weights and all(w.shape[-1] == 10 + 1 for w in weights)  # [x | t]: no condition tokens
+
+
+def test_every_block_conditioning_starts_as_the_input_addition_and_then_learns() -> None:
+    plain = tiny_dit_additive()
+    every = tiny_dit_additive(cond_every_block=True)
+    every.load_state_dict(plain.state_dict(), strict=False)  # same weights; its block maps start at zero
+    x, t, cond = torch.randn(2, 10, 4), torch.tensor([3, 4]), torch.randn(2, 10, 3)
+    torch.testing.assert_close(every(x, t, cond), plain(x, t, cond))
+    every.train()(x, t, cond).square().sum().backward()
+    assert every.block_cond is not None
+    assert all(float(proj.weight.grad.abs().sum()) > 0 for proj in every.block_cond)
+    with torch.no_grad():
+        for proj in every.block_cond:
+            proj.weight.normal_(std=0.2)
+    with torch.no_grad():
+        moved = every.eval()(x, t, cond) - plain(x, t, cond)
+    assert float(moved.abs().max()) > 1e-3
+    # the per-block addition carries the condition: a dropped condition is still the null token
+    torch.testing.assert_close(every(x, t, cond, drop_cond=torch.tensor([True, True])), every(x, t, None))
 
 
 def test_null_embedding_is_trained_by_dropped_items() -> None:

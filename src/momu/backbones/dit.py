@@ -80,6 +80,10 @@ class DiTConfig:
             alone: the sequence is ``[x | t]``, half as long, and a dropped condition is the null
             token added to every frame (not in the paper; the cpu preset's cost saving,
             docs/presets.md).
+        cond_every_block: with ``cond_add``, also add the aligned condition frames to the latent
+            tokens before every block, each block through its own zero-initialised linear map
+            (not in the paper; FiLM-like per-layer conditioning as in EDGE, so the condition is not
+            diluted by depth). Zero-initialised, a fresh model starts as the ``False`` one.
         segment_embeddings: add a learned type embedding (latent / condition / timestep) to
             each token, so the model need not infer the segment from content (not in the paper).
         dropout: dropout in attention and feed-forward layers.
@@ -99,6 +103,7 @@ class DiTConfig:
     time_to_all_tokens: bool = False
     cond_add: bool = False
     cond_tokens: bool = True
+    cond_every_block: bool = False
     time_freq_dim: int = 256
     segment_embeddings: bool = True
     dropout: float = 0.0
@@ -132,6 +137,8 @@ class DiT(nn.Module):
             )
         if not cfg.cond_tokens and cfg.cond_channels > 0 and not cfg.cond_add:
             raise ValueError("dit.cond_tokens=false needs dit.cond_add=true (the condition would be unused)")
+        if cfg.cond_every_block and not cfg.cond_add:
+            raise ValueError("dit.cond_every_block=true needs dit.cond_add=true (it repeats that addition)")
         if cfg.time_freq_dim % 2:
             raise ValueError(f"dit.time_freq_dim must be even, got {cfg.time_freq_dim}")
         self.cfg = cfg
@@ -157,6 +164,11 @@ class DiT(nn.Module):
             [TransformerBlock(h, cfg.heads, None, cfg.mlp_ratio, cfg.dropout) for _ in range(cfg.depth)]
         )
         _init_linear(self.blocks)
+        self.block_cond: nn.ModuleList | None = None
+        if cfg.cond_every_block and cfg.cond_channels > 0:
+            self.block_cond = nn.ModuleList([nn.Linear(h, h, bias=False) for _ in range(cfg.depth)])
+            for proj in self.block_cond:
+                nn.init.zeros_(proj.weight)
 
     # ------------------------------------------------------------------ condition tokens
     def _cond_tokens(
@@ -208,12 +220,14 @@ class DiT(nn.Module):
         t_tok = self.time_embed(t)[:, None, :].to(hx.dtype)  # (B, 1, H)
 
         len_c = torch.zeros_like(len_x)
+        aligned_cond: Tensor | None = None
         if c_tok is not None and c_mask is not None:
             len_c = c_mask.sum(dim=1)
             if self.cfg.cond_add:  # latent frame p also gets condition frame ⌊p·L_c/L_x⌋ added
                 src = (torch.arange(length, device=dev)[None, :] * len_c[:, None]) // len_x[:, None]
                 src = src.clamp_max(c_tok.shape[1] - 1)
-                hx = hx + torch.gather(c_tok, 1, src[..., None].expand(-1, -1, c_tok.shape[-1])) * keep
+                aligned_cond = torch.gather(c_tok, 1, src[..., None].expand(-1, -1, c_tok.shape[-1])) * keep
+                hx = hx + aligned_cond
         parts, masks = [hx], [x_mask]
         if not self.cfg.cond_tokens:  # the condition entered by addition only
             c_tok, c_mask, len_c = None, None, torch.zeros_like(len_x)
@@ -271,8 +285,14 @@ class DiT(nn.Module):
         dense = x_mask_given is None and not cond_masked and not padded
         attn_mask = None if dense else mask
 
-        for block in self.blocks:
-            tokens = block(tokens, attn_mask)
+        if self.block_cond is not None and aligned_cond is not None:
+            # zero rows for the condition/timestep/padding tokens: only latent tokens get it
+            aligned_cond = F.pad(aligned_cond, (0, 0, 0, tokens.shape[1] - length))
+            for block, proj in zip(self.blocks, self.block_cond, strict=True):
+                tokens = block(tokens + proj(aligned_cond), attn_mask)
+        else:
+            for block in self.blocks:
+                tokens = block(tokens, attn_mask)
 
         # truncate to the latent frames and project back (MoMu §4)
         out = self.out_norm(tokens[:, :length]) * keep
