@@ -166,9 +166,10 @@ class DiT(nn.Module):
         _init_linear(self.blocks)
         self.block_cond: nn.ModuleList | None = None
         if cfg.cond_every_block and cfg.cond_channels > 0:
-            self.block_cond = nn.ModuleList([nn.Linear(h, h, bias=False) for _ in range(cfg.depth)])
-            for proj in self.block_cond:
+            maps = [nn.Linear(h, h, bias=False) for _ in range(cfg.depth)]
+            for proj in maps:
                 nn.init.zeros_(proj.weight)
+            self.block_cond = nn.ModuleList(maps)
 
     # ------------------------------------------------------------------ condition tokens
     def _cond_tokens(
