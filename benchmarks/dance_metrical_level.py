@@ -26,11 +26,11 @@ from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, music_envelope, tr
 from momu.following.adapters import from_model_dir
 from momu.following.analysis import analyse_motion
 from momu.following.inputs import FACTORS
-from momu.following.pairs import DWM_SPLIT
+from momu.following.pairs import LEAD_S, dataset_node
 from momu.following.signals import time_stretch_audio
 from momu.following.tempo import beat_tempo
 
-START_S, SECONDS = 2.0, 15.0
+START_S, SECONDS = LEAD_S, 15.0
 LEVELS = (
     Fraction(1, 3),
     Fraction(1, 2),
@@ -59,8 +59,7 @@ def main() -> None:
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args()
     generator = from_model_dir(args.model)
-    node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
-    ds = build_component(node, "datasets")
+    ds = build_component(dataset_node(args.data, "all", "dwm21", SECONDS, 8), "datasets")
     clips = {ds[i].id: i for i in range(len(ds))}
     cells = []
     for cell in args.cells:

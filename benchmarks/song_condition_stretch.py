@@ -23,11 +23,11 @@ from pathlib import Path
 from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, music_envelope, track_beats
 from momu.following.inputs import FACTORS
-from momu.following.pairs import DWM_SPLIT
+from momu.following.pairs import LEAD_S, dataset_node
 from momu.following.signals import time_stretch_audio
 from momu.following.tempo import beat_tempo, fold_ratio
 
-START_S, SECONDS = 2.0, 15.0
+START_S, SECONDS = LEAD_S, 15.0
 CONDITIONS = {
     "tracker": RhythmConfig(),
     "periodogram": RhythmConfig(tempo="periodogram"),
@@ -43,8 +43,7 @@ def main() -> None:
     p.add_argument("--data", default="../shared/data/dance_with_melody")
     p.add_argument("--out", type=Path, default=Path("benchmarks/results/song_condition_stretch.json"))
     args = p.parse_args()
-    node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
-    ds = build_component(node, "datasets")
+    ds = build_component(dataset_node(args.data, "all", "dwm21", SECONDS, 8), "datasets")
     rows = []
     for i in range(len(ds)):
         clip = ds[i]

@@ -238,7 +238,6 @@ def test_every_block_conditioning_starts_as_the_input_addition_and_then_learns()
     with torch.no_grad():
         for proj in every.block_cond:
             proj.weight.normal_(std=0.2)
-    with torch.no_grad():
         moved = every.eval()(x, t, cond) - plain(x, t, cond)
     assert float(moved.abs().max()) > 1e-3
     # the per-block addition carries the condition: a dropped condition is still the null token
