@@ -104,6 +104,21 @@ SEEDS = (0, 1, 2)
 log = logging.getLogger("pretrain")
 
 
+def data_overrides(data: str) -> list[str]:
+    """:data:`SYNTH_OVERRIDES` for ``synth``; for a Dance with Melody folder the project's agreed split
+    (:data:`momu.following.pairs.DWM_SPLIT`, 0.6/0.2/0.2), so that the model trains on the train split
+    and never on the validation songs :func:`evaluate` scores it on (the loader's own default, 0.9 for
+    train, would put every one of them in training)."""
+    if data == "synth":
+        return list(SYNTH_OVERRIDES)
+    from momu.following.pairs import DWM_SPLIT
+    from momu.training import detect_dataset
+
+    if detect_dataset(Path(data)) != "dance_with_melody":
+        return []
+    return [f"dataset.{key}={json.dumps(value)}" for key, value in DWM_SPLIT.items()]
+
+
 def _set_samplers(model: Path) -> None:
     """Write :data:`SHIPPED_SAMPLERS` into the model folder's ``momu.json``."""
     meta_path = model / "momu.json"
@@ -184,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     from momu.training import find_model, train_method
 
     command = ["python", "recipes/pretrain.py", *(argv if argv is not None else sys.argv[1:])]
-    overrides = [*(SYNTH_OVERRIDES if args.data == "synth" else []), *METHOD_OVERRIDES, *args.override]
+    overrides = [*data_overrides(args.data), *METHOD_OVERRIDES, *args.override]
     if not args.skip_train:
         train_method(
             "momu",
@@ -208,5 +223,17 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def run(argv: list[str] | None = None) -> int:
+    """:func:`main`; a bad ``--data`` folder or config key is one line and exit status 2
+    (:func:`momu.errors.fail`)."""
+    from momu.config import ConfigError
+    from momu.errors import fail
+
+    try:
+        return main(argv)
+    except ConfigError as exc:
+        return fail("pretrain.py", exc)
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run())
