@@ -53,7 +53,9 @@ def test_training_on_dance_with_melody_keeps_the_validation_songs_out(tmp_path: 
     assert recipe.data_overrides("synth") == recipe.SYNTH_OVERRIDES  # type: ignore[attr-defined]
 
 
-def test_a_missing_data_folder_is_one_line_and_status_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_missing_data_folder_is_one_line_and_status_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     recipe = _recipe()
     work = tmp_path / "work"
     status = recipe.run(["--data", str(tmp_path / "missing"), "--work", str(work)])  # type: ignore[attr-defined]

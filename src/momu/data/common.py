@@ -93,6 +93,9 @@ class LoaderConfig:
         window_offset_seconds: where the window starts, in seconds from the clip's start.
         target_fps: resample the motion to this frame rate (``None``: keep the dataset's);
             see :func:`resample_motion`. Applied before the window.
+        tempo_factors: time-stretch augmentation: after the clips themselves, every clip of the
+            train split again played each factor times faster (:func:`momu.data.stretch.stretch_clip`;
+            id ``<id>@x<factor>``). Validation and test clips stay as recorded. Empty: none.
     """
 
     root: str = ""
@@ -102,6 +105,7 @@ class LoaderConfig:
     window_seconds: float | None = None
     window_offset_seconds: float = 0.0
     target_fps: float | None = None
+    tempo_factors: list[float] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -325,8 +329,11 @@ def hash_split(item_id: str, ratios: Sequence[float] = (0.9, 0.05, 0.05), seed: 
 class LazyClipDataset:
     """A :class:`~momu.data.types.ClipDataset` that reads one item per index.
 
-    Subclasses fill ``self.items`` with :class:`ItemRef` and implement :meth:`load`; indexing
-    applies the configured window. Errors from :meth:`load` name the item's file.
+    Subclasses fill ``self.items`` with :class:`ItemRef` (``extra["split"]``: its split) and implement
+    :meth:`load`; indexing applies the configured window. With ``tempo_factors`` the items come first,
+    then the train items played at the first factor, then at the second, ...; a stretched clip is
+    computed once per dataset object (the phase vocoder takes seconds per minute of audio). Errors from
+    :meth:`load` name the item's file.
 
     Attributes:
         name: the registry name.
@@ -349,21 +356,28 @@ class LazyClipDataset:
             raise ValueError(
                 f"{self.name}: window_offset_seconds must be >= 0, got {cfg.window_offset_seconds}"
             )
+        from momu.data.stretch import check_tempo_factors
+
         self.cfg = cfg
         self.root = root
         self.items: list[ItemRef] = list(items)
+        train = [i for i, ref in enumerate(self.items) if ref.extra.get("split") == "train"]
+        factors = check_tempo_factors(cfg.tempo_factors, self.name)
+        self.plays: list[tuple[int, float]] = [(i, 1.0) for i in range(len(self.items))]
+        self.plays += [(i, f) for f in factors for i in train]
+        self._stretched: dict[int, Clip] = {}
 
     def __len__(self) -> int:
-        return len(self.items)
+        return len(self.plays)
 
     def __getitem__(self, index: int) -> Clip:
         if not isinstance(index, (int, np.integer)):
             raise TypeError(f"{self.name}: index must be an int, got {type(index).__name__}")
-        n = len(self.items)
+        n = len(self)
         if not -n <= index < n:
             raise IndexError(f"{self.name}: index {index} out of range for {n} items")
-        ref = self.items[int(index)]
-        clip = self.load(ref)
+        index = int(index) % n
+        clip = self._play(index)
         if self.cfg.target_fps is not None and clip.motion is not None:
             clip = resample_motion(clip, self.cfg.target_fps)
         window = self.cfg.window_seconds
@@ -371,12 +385,25 @@ class LazyClipDataset:
             try:
                 clip = crop_clip(clip, self.cfg.window_offset_seconds, window)
             except ValueError as exc:
-                raise DataFileError(ref.path, str(exc)) from None
+                raise DataFileError(self.items[self.plays[index][0]].path, str(exc)) from None
         return clip
+
+    def _play(self, index: int) -> Clip:
+        """Play ``index`` of :attr:`plays`: its item, stretched by its factor."""
+        item, factor = self.plays[index]
+        if factor == 1.0:
+            return self.load(self.items[item])
+        if index not in self._stretched:
+            from momu.data.stretch import stretch_clip
+
+            self._stretched[index] = stretch_clip(self.load(self.items[item]), factor)
+        return self._stretched[index]
 
     @property
     def ids(self) -> list[str]:
-        return [ref.id for ref in self.items]
+        from momu.data.stretch import stretched_id
+
+        return [self.items[i].id if f == 1.0 else stretched_id(self.items[i].id, f) for i, f in self.plays]
 
     def load(self, ref: ItemRef) -> Clip:  # pragma: no cover - abstract
         raise NotImplementedError
