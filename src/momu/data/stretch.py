@@ -1,14 +1,15 @@
 """Time-stretch augmentation of paired clips: the same dance and song played ``factor`` times faster.
 
-A loader's ``tempo_factors`` option (:class:`momu.data.common.LoaderConfig`) adds, for every clip, one
-copy per factor made by :func:`stretch_clip`. A model trained on real pairs at their recorded tempi
-only can learn each song's tempo by heart instead of following the input; with stretched copies the
-same figure comes at several tempi, each with its music at the matching tempo (issue 32, "time-stretch
-augmentation of paired data"; the music-following benchmark's tempo test plays its inputs ×0.8 … ×1.25
-faster, docs/following.md).
+A loader's ``tempo_factors`` option (:class:`momu.data.common.LoaderConfig`) adds, for every clip of
+the train split, one copy per factor made by :func:`stretch_clip`. A model trained on real pairs at
+their recorded tempi only can learn each song's tempo by heart instead of following the input; with
+stretched copies the same figure comes at several tempi, each with its music at the matching tempo
+(issue 32, "time-stretch augmentation of paired data"; the music-following benchmark's tempo test plays
+its inputs ×0.8 … ×1.25 faster, docs/following.md).
 
 The audio is stretched by librosa's phase vocoder (:func:`librosa.effects.time_stretch`: the pitch is
-kept), the motion, its trajectory and per-frame annotations are resampled in time
+kept; :func:`time_stretch_audio`, also what the music-following benchmark stretches its songs with),
+the motion, its trajectory and per-frame annotations are resampled in time
 (:func:`momu.data.common.resample_motion`, linear), and beat times are divided by the factor.
 """
 
@@ -17,12 +18,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 
+import librosa
 import numpy as np
 
 from momu.data.common import PER_FRAME_META, resample_motion
 from momu.data.types import Clip
 
-__all__ = ["stretch_clip", "check_tempo_factors", "stretched_id"]
+__all__ = ["stretch_clip", "time_stretch_audio", "check_tempo_factors", "stretched_id"]
 
 
 def check_tempo_factors(factors: Sequence[float], dataset: str) -> list[float]:
@@ -38,6 +40,14 @@ def check_tempo_factors(factors: Sequence[float], dataset: str) -> list[float]:
             raise ValueError(f"{dataset}: tempo_factors repeats {value}")
         out.append(float(value))
     return out
+
+
+def time_stretch_audio(audio: np.ndarray, factor: float) -> np.ndarray:
+    """``audio`` played ``factor`` times faster at the same pitch (tempo × ``factor``, length ÷ ``factor``;
+    ``librosa.effects.time_stretch``, phase vocoder)."""
+    if factor == 1.0:
+        return np.asarray(audio, dtype=np.float32)
+    return np.asarray(librosa.effects.time_stretch(np.asarray(audio, dtype=np.float32), rate=factor))
 
 
 def stretched_id(clip_id: str, factor: float) -> str:
@@ -62,8 +72,5 @@ def stretch_clip(clip: Clip, factor: float) -> Clip:
     meta["tempo_factor"] = float(factor)
     audio = clip.audio
     if audio is not None:
-        import librosa
-
-        stretched = librosa.effects.time_stretch(np.asarray(audio, dtype=np.float32), rate=factor)
-        audio = np.clip(stretched, -1.0, 1.0).astype(np.float32)
+        audio = np.clip(time_stretch_audio(audio, factor), -1.0, 1.0).astype(np.float32)
     return dataclasses.replace(out, id=stretched_id(clip.id, factor), audio=audio, meta=meta)

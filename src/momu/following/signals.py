@@ -12,6 +12,7 @@ import librosa
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from momu.data.stretch import time_stretch_audio
 from momu.features.audio import resample as resample_audio
 
 __all__ = [
@@ -81,14 +82,6 @@ def log_mel(audio: np.ndarray, sample_rate: int, n_mels: int = 64) -> np.ndarray
     y = to_audio_rate(audio, sample_rate)
     mel = librosa.feature.melspectrogram(y=y, sr=AUDIO_RATE, n_fft=1024, hop_length=HOP, n_mels=n_mels)
     return np.asarray(librosa.power_to_db(mel, ref=1.0, top_db=None), dtype=np.float64).clip(-80.0).T
-
-
-def time_stretch_audio(audio: np.ndarray, factor: float) -> np.ndarray:
-    """``audio`` played ``factor`` times faster at the same pitch (tempo × ``factor``, length ÷ ``factor``;
-    ``librosa.effects.time_stretch``, phase vocoder)."""
-    if factor == 1.0:
-        return np.asarray(audio, dtype=np.float32)
-    return np.asarray(librosa.effects.time_stretch(np.asarray(audio, dtype=np.float32), rate=factor))
 
 
 def time_scale_motion(motion: np.ndarray, fps: float, factor: float) -> np.ndarray:
