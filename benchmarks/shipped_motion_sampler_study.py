@@ -1,12 +1,13 @@
 """Which music → dance sampler settings should the shipped model use? Validation split, every training seed.
 
     python benchmarks/shipped_motion_sampler_study.py --models SEED0_DIR SEED1_DIR SEED2_DIR \
-        --variants 8:0 5:0 8:0.7 8:0:500-999 --data ../shared/data/dance_with_melody --out OUT
+        --variants 8:0 5:0 8:0.7 8:0:500-999 8:0:eta=0 --data ../shared/data/dance_with_melody --out OUT
 
 For each model folder (one per training seed of ``recipes/pretrain.py``) and each variant
-``SCALE:RESCALE[:LOW-HIGH]`` — the motion sampler's ``guidance_scale``, ``guidance_rescale`` (rescaled
-guidance, Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`) and, when given, its
-``guidance_interval`` (training timesteps); everything else as shipped — a copy
+``SCALE:RESCALE[:LOW-HIGH][:eta=ETA]`` — the motion sampler's ``guidance_scale``, ``guidance_rescale``
+(rescaled guidance, Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`) and, when given,
+its ``guidance_interval`` (training timesteps) and ``guidance_parallel`` (η of projected guidance,
+Sadat et al. 2025, :func:`momu.samplers.base.project_guided`); everything else as shipped — a copy
 of the folder with that ``motion_sampler`` is scored by the music-following benchmark
 (``recipes/music_following.py``, music → dance, the **validation** split, 15-s excerpts, generation
 seeds 0 1 2, no controls) into ``OUT/<variant>_seed<k>/music_following``. ``OUT/summary.{json,md}``
@@ -36,15 +37,19 @@ REALISM = ("root_travel_m_per_min", "foot_speed", "joint_speed", "bone_length_cv
 
 
 def _variant(text: str) -> tuple[str, dict[str, Any]]:
-    """``SCALE:RESCALE[:LOW-HIGH]`` as a run name and the ``motion_sampler`` fields it sets."""
+    """``SCALE:RESCALE[:LOW-HIGH][:eta=ETA]`` as a run name and the ``motion_sampler`` fields it sets."""
     scale, _, rest = text.partition(":")
-    rescale, _, interval = rest.partition(":")
+    rescale, *extra = rest.split(":") if rest else [""]
     fields: dict[str, Any] = {"guidance_scale": float(scale), "guidance_rescale": float(rescale or 0.0)}
     name = f"scale{fields['guidance_scale']:g}_rescale{fields['guidance_rescale']:g}"
-    if interval:
-        low, high = (int(v) for v in interval.split("-"))
-        fields["guidance_interval"] = [low, high]
-        name += f"_interval{low}-{high}"
+    for part in extra:
+        if part.startswith("eta="):
+            fields["guidance_parallel"] = float(part[4:])
+            name += f"_parallel{fields['guidance_parallel']:g}"
+        else:
+            low, high = (int(v) for v in part.split("-"))
+            fields["guidance_interval"] = [low, high]
+            name += f"_interval{low}-{high}"
     return name, fields
 
 
@@ -110,7 +115,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--models", type=Path, nargs="+", required=True, help="model folders, training seed order")
     p.add_argument(
-        "--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE[:LOW-HIGH] of the motion sampler"
+        "--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE[:LOW-HIGH][:eta=ETA] of the motion sampler"
     )
     p.add_argument("--data", default="../shared/data/dance_with_melody")
     p.add_argument("--out", type=Path, required=True)

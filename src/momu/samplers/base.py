@@ -32,6 +32,8 @@ __all__ = [
     "guided_eps",
     "check_guidance_interval",
     "check_guidance_rescale",
+    "check_guidance_parallel",
+    "project_guided",
     "Guidance",
     "rescale_guided",
     "reverse_loop",
@@ -159,6 +161,39 @@ def check_guidance_rescale(rescale: float) -> float:
     return value
 
 
+def check_guidance_parallel(parallel: float) -> float:
+    """``guidance_parallel`` as a float; a ``ValueError`` naming it unless ``0 <= parallel <= 1``."""
+    value = float(parallel)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(f"guidance_parallel must be in [0, 1], got {parallel}")
+    return value
+
+
+def project_guided(
+    cond_out: Tensor, uncond_out: Tensor, scale: float, parallel: float, x_mask: Tensor | None = None
+) -> Tensor:
+    """Projected guidance (Sadat et al., ICLR 2025, "Eliminating Oversaturation and Artifacts of High
+    Guidance Scales in Diffusion Models", arXiv 2410.02416: the projection of its adaptive projected
+    guidance, without momentum or norm threshold; diffusers' ``normalized_guidance``): the guidance update
+    ``Δ = cond_out − uncond_out`` is split into its component parallel to ``cond_out`` and the rest,
+    and the parallel one is weighted by ``parallel`` (η):
+    ``uncond_out + scale · (Δ⊥ + η · Δ∥)``. η = 1 is plain Eq. 7. The parallel component is what
+    scales the prediction up (the paper's oversaturation; in a dance, limbs swung wider and faster than
+    any training dance), the orthogonal one what moves it towards the condition.
+
+    The projection is per item over its valid frames (``x_mask``) and channels; padded frames are zero
+    in both outputs before projecting (the reverse loop zeroes them anyway).
+    """
+    if parallel == 1.0:
+        return uncond_out + scale * (cond_out - uncond_out)
+    from diffusers.guiders.adaptive_projected_guidance import normalized_guidance
+
+    if x_mask is not None:
+        keep = x_mask.to(cond_out.dtype).reshape(*x_mask.shape, *([1] * (cond_out.ndim - 2)))
+        cond_out, uncond_out = cond_out * keep, uncond_out * keep
+    return normalized_guidance(cond_out, uncond_out, scale, eta=parallel)
+
+
 def rescale_guided(guided: Tensor, cond_out: Tensor, rescale: float, x_mask: Tensor | None = None) -> Tensor:
     """Rescaled classifier-free guidance (Lin et al. 2024, "Common Diffusion Noise Schedules and Sample
     Steps are Flawed", §3.4, Eq. 15-16): the guided output scaled to the conditional output's standard
@@ -199,6 +234,7 @@ def guided_eps(
     cond_mask: Tensor | None = None,
     interval: tuple[int, int] | None = None,
     rescale: float = 0.0,
+    parallel: float = 1.0,
 ) -> Tensor:
     """Classifier-free guidance, MoMu Eq. 7: ε̂ = ε(z_t, t, ∅) + s·(ε(z_t, t, c) − ε(z_t, t, ∅)).
 
@@ -212,12 +248,14 @@ def guided_eps(
     (Kynkäänniemi et al. 2024, "Applying Guidance in a Limited Interval Improves Sample and
     Distribution Quality in Diffusion Models"). Guided low-noise steps add high-frequency detail,
     which in a motion is jitter (docs/diffusion.md, "cfg"). ``rescale`` > 0 rescales the guided output
-    towards the conditional one's standard deviation (:func:`rescale_guided`).
+    towards the conditional one's standard deviation (:func:`rescale_guided`); ``parallel`` < 1 weights
+    the guidance update's component parallel to the conditional output (:func:`project_guided`).
 
     Args:
         x: ``(B, T, C)`` noisy sequence; ``t``: ``(B,)`` timesteps; ``cond``: ``(B, Tc, Cc)``.
         scale: guidance scale s (1 = conditional, 0 = unconditional).
         rescale: φ of rescaled guidance in [0, 1] (0: plain Eq. 7).
+        parallel: η of projected guidance in [0, 1] (1: plain Eq. 7).
     """
     b = x.shape[0]
     if interval is not None and cond is not None:
@@ -242,22 +280,24 @@ def guided_eps(
         drop_cond=drop,
     )
     eps_c, eps_u = out.chunk(2)
-    return rescale_guided(eps_u + scale * (eps_c - eps_u), eps_c, rescale, x_mask)
+    return rescale_guided(project_guided(eps_c, eps_u, scale, parallel, x_mask), eps_c, rescale, x_mask)
 
 
 @dataclass(frozen=True)
 class Guidance:
-    """A guidance sampler's checked ``guidance_interval`` and ``guidance_rescale``
-    (:func:`guided_eps`)."""
+    """A guidance sampler's checked ``guidance_interval``, ``guidance_rescale`` and
+    ``guidance_parallel`` (:func:`guided_eps`)."""
 
     interval: tuple[int, int] | None = None
     rescale: float = 0.0
+    parallel: float = 1.0
 
     @classmethod
     def of(cls, cfg: Any) -> Guidance:
-        """From a sampler config with ``guidance_interval`` and ``guidance_rescale``."""
+        """From a sampler config with ``guidance_interval``, ``guidance_rescale`` and ``guidance_parallel``."""
         interval = check_guidance_interval(cfg.guidance_interval)
-        return cls(interval, check_guidance_rescale(cfg.guidance_rescale))
+        rescale = check_guidance_rescale(cfg.guidance_rescale)
+        return cls(interval, rescale, check_guidance_parallel(cfg.guidance_parallel))
 
     def eps_fn(
         self,
@@ -281,6 +321,7 @@ class Guidance:
                 cond_mask=cond_mask,
                 interval=self.interval,
                 rescale=self.rescale,
+                parallel=self.parallel,
             )
 
         return eps

@@ -44,6 +44,10 @@ class CFGConfig:
         guidance_rescale: φ of rescaled guidance (Lin et al. 2024 §3.4,
             :func:`momu.samplers.base.rescale_guided`): 0 (default) is plain Eq. 7, 1 scales the
             guided output to the conditional output's standard deviation.
+        guidance_parallel: η of projected guidance (Sadat et al. 2025,
+            :func:`momu.samplers.base.project_guided`): the weight of the guidance update's component
+            parallel to the conditional output; 1 (default) is plain Eq. 7, 0 keeps only the
+            orthogonal component.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's (DDIM: 50, MoMu §5.1).
         scheduler: the scheduler node used when none is passed to the factory (default ``ddim``).
     """
@@ -53,6 +57,7 @@ class CFGConfig:
     scheduler: Any = field(default_factory=_default_scheduler)
     guidance_interval: list[int] | None = None
     guidance_rescale: float = 0.0
+    guidance_parallel: float = 1.0
 
 
 class CFGSampler:

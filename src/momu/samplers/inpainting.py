@@ -62,6 +62,10 @@ class InpaintingConfig:
         guidance_rescale: φ of rescaled guidance (Lin et al. 2024 §3.4,
             :func:`momu.samplers.base.rescale_guided`): 0 (default) is plain Eq. 7, 1 scales the
             guided output to the conditional output's standard deviation.
+        guidance_parallel: η of projected guidance (Sadat et al. 2025,
+            :func:`momu.samplers.base.project_guided`): the weight of the guidance update's component
+            parallel to the conditional output; 1 (default) is plain Eq. 7, 0 keeps only the
+            orthogonal component.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's.
         scheduler: the scheduler node used when none is passed to the factory.
     """
@@ -74,6 +78,7 @@ class InpaintingConfig:
     scheduler: Any = field(default_factory=_default_scheduler)
     guidance_interval: list[int] | None = None
     guidance_rescale: float = 0.0
+    guidance_parallel: float = 1.0
 
 
 def forecast_mask(batch: int, length: int, seed_frames: int) -> Tensor:
