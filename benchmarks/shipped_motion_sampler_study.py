@@ -115,7 +115,10 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--models", type=Path, nargs="+", required=True, help="model folders, training seed order")
     p.add_argument(
-        "--variants", nargs="+", default=["8:0"], help="SCALE:RESCALE[:LOW-HIGH][:eta=ETA] of the motion sampler"
+        "--variants",
+        nargs="+",
+        default=["8:0"],
+        help="SCALE:RESCALE[:LOW-HIGH][:eta=ETA]: motion sampler",
     )
     p.add_argument("--data", default="../shared/data/dance_with_melody")
     p.add_argument("--out", type=Path, required=True)

@@ -294,7 +294,7 @@ class Guidance:
 
     @classmethod
     def of(cls, cfg: Any) -> Guidance:
-        """From a sampler config with ``guidance_interval``, ``guidance_rescale`` and ``guidance_parallel``."""
+        """From a sampler config with ``guidance_interval``, ``guidance_rescale``, ``guidance_parallel``."""
         interval = check_guidance_interval(cfg.guidance_interval)
         rescale = check_guidance_rescale(cfg.guidance_rescale)
         return cls(interval, rescale, check_guidance_parallel(cfg.guidance_parallel))

@@ -244,10 +244,13 @@ class MoMu:
                     conditions=None if plain else conditions,
                     music_beats=music_beats,
                 )
+                stretched = sum(1 for clip in train_clips if "@x" in str(clip.id))
                 log.info(
-                    "momu: %d training windows of %.2f s",
+                    "momu: %d training windows of %.2f s from %d clips%s",
                     len(built["windows"]),
                     built["windows"].window_seconds,
+                    len(train_clips),
+                    f" ({stretched} of them time-stretched copies, tempo_factors)" if stretched else "",
                 )
             data: WindowDataset = built["windows"]
             return data
