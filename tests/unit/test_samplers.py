@@ -125,6 +125,18 @@ def test_guidance_rescale_ignores_padded_frames() -> None:
     torch.testing.assert_close(out[0], rescale_guided(guided[:1], cond_out[:1], 1.0)[0])
 
 
+def _guided_sample(name: str, params: dict[str, Any], cond: Tensor) -> Tensor:
+    """A 3-step DDPM sample of the ``name`` sampler (``cfg`` or ``inpainting`` with nothing known) at
+    guidance 5 with ``params``, the same noise every call."""
+    node = {"num_inference_steps": 3, "guidance_scale": 5.0, "scheduler": {"name": "ddpm"}}
+    sampler = SAMPLERS.build(name, {**node, **params})
+    gen = torch.Generator().manual_seed(3)
+    if name == "cfg":
+        return sampler.sample(tiny_dit(), (1, 6, 4), cond, generator=gen)
+    known, mask = torch.zeros(1, 6, 4), torch.zeros(1, 6, dtype=torch.bool)
+    return sampler.sample(tiny_dit(), known, mask, cond, generator=gen)
+
+
 def test_projected_guidance_drops_the_parallel_component() -> None:
     """Projected guidance (Sadat et al. 2025): η = 1 is plain Eq. 7; at η = 0 what guidance adds to the
     unconditional output is the update's part orthogonal to the conditional output (per item), so the
@@ -160,16 +172,10 @@ def test_guidance_parallel_config(name: str) -> None:
     is named, and the long-sequence stitching keeps it."""
     from momu.generation.stitching import inpainting_like
 
-    node = {"num_inference_steps": 3, "guidance_scale": 5.0, "scheduler": {"name": "ddpm"}}
     cond = torch.randn(1, 6, 3)
 
     def run(params: dict[str, Any]) -> Tensor:
-        sampler = SAMPLERS.build(name, {**node, **params})
-        gen = torch.Generator().manual_seed(3)
-        if name == "cfg":
-            return sampler.sample(tiny_dit(), (1, 6, 4), cond, generator=gen)
-        known, mask = torch.zeros(1, 6, 4), torch.zeros(1, 6, dtype=torch.bool)
-        return sampler.sample(tiny_dit(), known, mask, cond, generator=gen)
+        return _guided_sample(name, params, cond)
 
     assert torch.equal(run({"guidance_parallel": 1.0}), run({}))
     assert not torch.allclose(run({"guidance_parallel": 0.0}), run({}))
@@ -182,16 +188,10 @@ def test_guidance_parallel_config(name: str) -> None:
 @pytest.mark.parametrize("name", ["cfg", "inpainting"])
 def test_guidance_rescale_config(name: str) -> None:
     """``guidance_rescale`` changes a guided sample, and a value outside [0, 1] is named."""
-    node = {"num_inference_steps": 3, "guidance_scale": 5.0, "scheduler": {"name": "ddpm"}}
     cond = torch.randn(1, 6, 3)
 
     def run(params: dict[str, Any]) -> Tensor:
-        sampler = SAMPLERS.build(name, {**node, **params})
-        gen = torch.Generator().manual_seed(3)
-        if name == "cfg":
-            return sampler.sample(tiny_dit(), (1, 6, 4), cond, generator=gen)
-        known, mask = torch.zeros(1, 6, 4), torch.zeros(1, 6, dtype=torch.bool)
-        return sampler.sample(tiny_dit(), known, mask, cond, generator=gen)
+        return _guided_sample(name, params, cond)
 
     assert torch.equal(run({"guidance_rescale": 0.0}), run({}))
     assert not torch.allclose(run({"guidance_rescale": 0.7}), run({}))

@@ -153,20 +153,22 @@ def check_guidance_interval(interval: Sequence[int] | None) -> tuple[int, int] |
     return int(values[0]), int(values[1])
 
 
+def _unit_weight(value: float, name: str) -> float:
+    """``value`` as a float; a ``ValueError`` naming ``name`` unless ``0 <= value <= 1``."""
+    out = float(value)
+    if not 0.0 <= out <= 1.0:
+        raise ValueError(f"{name} must be in [0, 1], got {value}")
+    return out
+
+
 def check_guidance_rescale(rescale: float) -> float:
     """``guidance_rescale`` as a float; a ``ValueError`` naming it unless ``0 <= rescale <= 1``."""
-    value = float(rescale)
-    if not 0.0 <= value <= 1.0:
-        raise ValueError(f"guidance_rescale must be in [0, 1], got {rescale}")
-    return value
+    return _unit_weight(rescale, "guidance_rescale")
 
 
 def check_guidance_parallel(parallel: float) -> float:
     """``guidance_parallel`` as a float; a ``ValueError`` naming it unless ``0 <= parallel <= 1``."""
-    value = float(parallel)
-    if not 0.0 <= value <= 1.0:
-        raise ValueError(f"guidance_parallel must be in [0, 1], got {parallel}")
-    return value
+    return _unit_weight(parallel, "guidance_parallel")
 
 
 def project_guided(

@@ -244,7 +244,7 @@ class MoMu:
                     conditions=None if plain else conditions,
                     music_beats=music_beats,
                 )
-                stretched = sum(1 for clip in train_clips if "@x" in str(clip.id))
+                stretched = sum(1 for clip in train_clips if "tempo_factor" in clip.meta)
                 log.info(
                     "momu: %d training windows of %.2f s from %d clips%s",
                     len(built["windows"]),
