@@ -1,20 +1,23 @@
 """Which music → dance sampler settings should the shipped model use? Validation split, every training seed.
 
     python benchmarks/shipped_motion_sampler_study.py --models SEED0_DIR SEED1_DIR SEED2_DIR \
-        --variants 8:0 5:0 8:0.7 8:0:500-999 8:0:eta=0 --data ../shared/data/dance_with_melody --out OUT
+        --variants 8:0 5:0 8:0.7 8:0:500-999 8:0:eta=0 5:0:ddim:tau=0.5 \
+        --data ../shared/data/dance_with_melody --out OUT
 
 For each model folder (one per training seed of ``recipes/pretrain.py``) and each variant
-``SCALE:RESCALE[:LOW-HIGH][:eta=ETA]`` — the motion sampler's ``guidance_scale``, ``guidance_rescale``
-(rescaled guidance, Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`) and, when given,
-its ``guidance_interval`` (training timesteps) and ``guidance_parallel`` (η of projected guidance,
-Sadat et al. 2025, :func:`momu.samplers.base.project_guided`); everything else as shipped — a copy
+``SCALE:RESCALE[:LOW-HIGH][:eta=ETA][:ddim][:tau=TAU]`` — the motion sampler's ``guidance_scale``,
+``guidance_rescale`` (rescaled guidance, Lin et al. 2024 §3.4, :func:`momu.samplers.base.rescale_guided`)
+and, when given, its ``guidance_interval`` (training timesteps), ``guidance_parallel`` (η of projected
+guidance, Sadat et al. 2025, :func:`momu.samplers.base.project_guided`), a deterministic DDIM scheduler
+(``ddim``: η = 0, the shipped steps and spacing) and ``noise_temperature`` (``tau``: z_T ~ N(0, τ²I));
+everything else as shipped — a copy
 of the folder with that ``motion_sampler`` is scored by the music-following benchmark
 (``recipes/music_following.py``, music → dance, the **validation** split, 15-s excerpts, generation
 seeds 0 1 2, no controls) into ``OUT/<variant>_seed<k>/music_following``. ``OUT/summary.{json,md}``
 collects, per variant and training seed, the verdicts and intervals of input sensitivity and tempo
-following and the realism statistics, and per variant the study's rule
-(``benchmarks/results/shipped_motion_sampler_val/README.md``): whether it passes every test and check
-at every training seed, and its mean foot speed's |log ratio| to the real dances' median.
+following, the outputs' spread over seeds (D_seed, m) and the realism statistics, and per variant the
+study's rule (``benchmarks/results/shipped_motion_sampler_val/README.md``): whether it passes every
+test and check at every training seed, and its mean foot speed's |log ratio| to the real dances' median.
 """
 
 from __future__ import annotations
@@ -37,7 +40,8 @@ REALISM = ("root_travel_m_per_min", "foot_speed", "joint_speed", "bone_length_cv
 
 
 def _variant(text: str) -> tuple[str, dict[str, Any]]:
-    """``SCALE:RESCALE[:LOW-HIGH][:eta=ETA]`` as a run name and the ``motion_sampler`` fields it sets."""
+    """``SCALE:RESCALE[:LOW-HIGH][:eta=ETA][:ddim][:tau=TAU]`` as a run name and the ``motion_sampler``
+    fields it sets (``ddim``: the ``scheduler`` fields that differ from the shipped DDPM's)."""
     scale, _, rest = text.partition(":")
     rescale, *extra = rest.split(":") if rest else [""]
     fields: dict[str, Any] = {"guidance_scale": float(scale), "guidance_rescale": float(rescale or 0.0)}
@@ -46,6 +50,12 @@ def _variant(text: str) -> tuple[str, dict[str, Any]]:
         if part.startswith("eta="):
             fields["guidance_parallel"] = float(part[4:])
             name += f"_parallel{fields['guidance_parallel']:g}"
+        elif part.startswith("tau="):
+            fields["noise_temperature"] = float(part[4:])
+            name += f"_tau{fields['noise_temperature']:g}"
+        elif part == "ddim":
+            fields["scheduler"] = {"name": "ddim", "eta": 0.0}
+            name += "_ddim"
         else:
             low, high = (int(v) for v in part.split("-"))
             fields["guidance_interval"] = [low, high]
@@ -58,7 +68,11 @@ def _with_sampler(model: Path, fields: dict[str, Any], into: Path) -> Path:
     dst = into / model.name
     shutil.copytree(model, dst)
     meta = json.loads((dst / "momu.json").read_text())
-    meta["config"]["motion_sampler"].update(fields)
+    sampler = meta["config"]["motion_sampler"]
+    if "scheduler" in fields:  # ddim: the shipped scheduler's steps, spacing, clipping and prediction
+        shipped = {k: v for k, v in sampler["scheduler"].items() if k not in ("name", "variance_type")}
+        fields = {**fields, "scheduler": {**shipped, **fields["scheduler"]}}
+    sampler.update(fields)
     (dst / "momu.json").write_text(json.dumps(meta, indent=2) + "\n")
     return dst
 
@@ -77,7 +91,7 @@ def _summary(out: Path, names: list[str], seeds: int) -> None:
     rows: list[dict[str, Any]] = []
     variants: list[dict[str, Any]] = []
     for name in names:
-        passes, feet, sensitivity, median = True, [], [], float("nan")
+        passes, feet, sensitivity, spreads, median = True, [], [], [], float("nan")
         for k in range(seeds):
             res = json.loads(_results(out / f"{name}_seed{k}").read_text())
             direction = res["directions"]["dance"]
@@ -88,6 +102,9 @@ def _summary(out: Path, names: list[str], seeds: int) -> None:
             sensitivity.append(row["tests"]["input_sensitivity"]["estimate"])
             median = direction["reference_realism"]["foot_speed"]["median"]
             cells = {t: _cell(row["tests"][t]) for t in TESTS}
+            spread = row["tests"]["input_sensitivity"].get("seed_distance")
+            cells["seed_distance_m"] = _cell(spread) if spread else "n/a"
+            spreads.append(spread["estimate"] if spread else float("nan"))
             cells.update({m: _cell(row["realism"][m]) for m in REALISM})
             rows.append({"variant": name, "training_seed": k, **cells})
         foot = float(np.mean(feet))
@@ -97,6 +114,7 @@ def _summary(out: Path, names: list[str], seeds: int) -> None:
                 "passes_at_every_seed": passes,
                 "mean_input_sensitivity": round(float(np.mean(sensitivity)), 3),
                 "mean_foot_speed": round(foot, 3),
+                "mean_seed_distance_m": round(float(np.mean(spreads)), 4),
                 "real_median_foot_speed": round(median, 3),
                 "abs_log_ratio": round(abs(float(np.log(foot / median))), 4),
             }
@@ -118,7 +136,7 @@ def main() -> None:
         "--variants",
         nargs="+",
         default=["8:0"],
-        help="SCALE:RESCALE[:LOW-HIGH][:eta=ETA]: motion sampler",
+        help="SCALE:RESCALE[:LOW-HIGH][:eta=ETA][:ddim][:tau=TAU]: motion sampler",
     )
     p.add_argument("--data", default="../shared/data/dance_with_melody")
     p.add_argument("--out", type=Path, required=True)

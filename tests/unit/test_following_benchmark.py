@@ -60,6 +60,9 @@ def test_a_dance_on_the_beat_follows_and_a_frozen_one_does_not(pairs: list) -> N
     assert bob["tempo_following"]["estimate"] > 0.8
     assert frozen["tempo_following"]["verdict"] == "fails"
     assert frozen["input_sensitivity"]["verdict"] == "fails"
+    # the spread the index compares: the frozen pose never varies, the bobbing one sways with the seed
+    assert frozen["input_sensitivity"]["seed_distance"]["estimate"] == 0.0
+    assert bob["input_sensitivity"]["seed_distance"]["estimate"] > 0.0
     assert bob["beat_phase_bailando"]["estimate"] > 0.2
     assert frozen["beat_phase_bailando"]["estimate"] == 0.0
     assert rows["half_beat_shift"]["tests"]["beat_phase_bailando"]["raw_verdict"] == "fails"

@@ -149,6 +149,9 @@ def _row_result(
         tests[t] = _summary(gen[t] if t in GENERATOR_ONLY else values[t])
         if t == "tempo_following":
             tests[t]["share_within_5pct"] = _summary(gen["tempo_following_share"])
+        if t == "input_sensitivity":
+            tests[t]["seed_distance"] = _summary(gen["seed_distance"])
+            tests[t]["song_distance"] = _summary(gen["song_distance"])
     result: dict[str, Any] = {
         "tests": tests,
         "bas": {v: _summary(a) for v, a in bas_own(direction, inputs, outputs, seeds).items()},

@@ -135,15 +135,15 @@ def _index(d_song: float, d_seed: float) -> float:
 def generator_tests(
     outputs: dict[Request, Analysis], songs: int, seeds: list[int], factors: tuple[float, ...]
 ) -> dict[str, np.ndarray]:
-    """``input_sensitivity``, ``tempo_following`` and ``tempo_following_share`` as ``(songs, seeds)``.
+    """``input_sensitivity`` (with its ``seed_distance`` D_seed, the outputs' spread over seeds, and
+    ``song_distance`` D_song), ``tempo_following`` and ``tempo_following_share`` as ``(songs, seeds)``.
 
     ``input_sensitivity`` needs 2 songs and 2 seeds (NaN otherwise); ``tempo_following`` the stretched
     outputs (NaN where missing).
     """
     n, m = songs, len(seeds)
-    res = {
-        k: np.full((n, m), np.nan) for k in ("input_sensitivity", "tempo_following", "tempo_following_share")
-    }
+    keys = ("input_sensitivity", "seed_distance", "song_distance", "tempo_following", "tempo_following_share")
+    res = {k: np.full((n, m), np.nan) for k in keys}
     x = np.log(np.asarray(factors, dtype=np.float64))
     for i in range(n):
         for k, s in enumerate(seeds):
@@ -153,7 +153,9 @@ def generator_tests(
             other_song = outputs.get(Request((i + 1) % n, s))
             other_seed = outputs.get(Request(i, seeds[(k + 1) % m]))
             if n > 1 and m > 1 and other_song is not None and other_seed is not None:
-                res["input_sensitivity"][i, k] = _index(distance(o, other_song), distance(o, other_seed))
+                d_song, d_seed = distance(o, other_song), distance(o, other_seed)
+                res["input_sensitivity"][i, k] = _index(d_song, d_seed)
+                res["seed_distance"][i, k], res["song_distance"][i, k] = d_seed, d_song
             stretched = [outputs.get(Request(i, s, f)) for f in factors]
             if any(a is None for a in stretched):
                 continue

@@ -74,8 +74,8 @@ one window then is exactly one-window generation (``MoMuModel.music_to_motion``)
 
 
 def inpainting_like(sampler: object) -> InpaintingSampler:
-    """An inpainting sampler with ``sampler``'s scheduler, steps, guidance scale, interval, rescale
-    and parallel weight (a CFG sampler)."""
+    """An inpainting sampler with ``sampler``'s scheduler, steps, guidance scale, interval, rescale,
+    parallel weight and noise temperature (a CFG sampler)."""
     cfg = getattr(sampler, "cfg", None)
     scheduler = getattr(sampler, "scheduler", None)
     if cfg is None or scheduler is None:
@@ -87,6 +87,7 @@ def inpainting_like(sampler: object) -> InpaintingSampler:
             guidance_interval=getattr(cfg, "guidance_interval", None),
             guidance_rescale=float(getattr(cfg, "guidance_rescale", 0.0)),
             guidance_parallel=float(getattr(cfg, "guidance_parallel", 1.0)),
+            noise_temperature=float(getattr(cfg, "noise_temperature", 1.0)),
         ),
         scheduler,
     )

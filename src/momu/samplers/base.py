@@ -28,6 +28,7 @@ __all__ = [
     "Generators",
     "resolve_scheduler",
     "make_noise",
+    "check_noise_temperature",
     "module_device",
     "guided_eps",
     "check_guidance_interval",
@@ -169,6 +170,14 @@ def check_guidance_rescale(rescale: float) -> float:
 def check_guidance_parallel(parallel: float) -> float:
     """``guidance_parallel`` as a float; a ``ValueError`` naming it unless ``0 <= parallel <= 1``."""
     return _unit_weight(parallel, "guidance_parallel")
+
+
+def check_noise_temperature(temperature: float) -> float:
+    """``noise_temperature`` as a float; a ``ValueError`` naming it unless ``temperature > 0``."""
+    out = float(temperature)
+    if not out > 0.0:
+        raise ValueError(f"noise_temperature must be > 0, got {temperature}")
+    return out
 
 
 def project_guided(

@@ -18,6 +18,7 @@ from momu.samplers.base import (
     Backbone,
     Generators,
     Guidance,
+    check_noise_temperature,
     make_noise,
     module_device,
     resolve_scheduler,
@@ -48,6 +49,11 @@ class CFGConfig:
             :func:`momu.samplers.base.project_guided`): the weight of the guidance update's component
             parallel to the conditional output; 1 (default) is plain Eq. 7, 0 keeps only the
             orthogonal component.
+        noise_temperature: τ > 0: the initial noise z_T is drawn from N(0, τ²I) (reduced-temperature
+            sampling, as Glow's temperature T, Kingma & Dhariwal 2018). 1 (default) is the reverse
+            process as trained; below 1 the seed decides less of the output. With a deterministic
+            scheduler (DDIM, η = 0: Song et al. 2021 §4.1) z_T is its only randomness; a stochastic
+            scheduler's per-step noise is not scaled.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's (DDIM: 50, MoMu §5.1).
         scheduler: the scheduler node used when none is passed to the factory (default ``ddim``).
     """
@@ -58,6 +64,7 @@ class CFGConfig:
     guidance_interval: list[int] | None = None
     guidance_rescale: float = 0.0
     guidance_parallel: float = 1.0
+    noise_temperature: float = 1.0
 
 
 class CFGSampler:
@@ -67,6 +74,7 @@ class CFGSampler:
         self.cfg = cfg
         self.scheduler = scheduler
         self.guidance = Guidance.of(cfg)
+        self.temperature = check_noise_temperature(cfg.noise_temperature)
 
     @torch.no_grad()
     def sample(
@@ -98,7 +106,7 @@ class CFGSampler:
             ``(B, T, C)`` generated sequence; zero at padded frames.
         """
         device, dtype = module_device(backbone)
-        x_T = make_noise(noise, generator, device, dtype)
+        x_T = make_noise(noise, generator, device, dtype) * self.temperature
         if x_T.shape[-1] != backbone.in_channels:
             raise ValueError(f"noise: {x_T.shape[-1]} channels, backbone expects {backbone.in_channels}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)

@@ -31,6 +31,7 @@ from momu.samplers.base import (
     Backbone,
     Generators,
     Guidance,
+    check_noise_temperature,
     make_noise,
     module_device,
     resolve_scheduler,
@@ -66,6 +67,11 @@ class InpaintingConfig:
             :func:`momu.samplers.base.project_guided`): the weight of the guidance update's component
             parallel to the conditional output; 1 (default) is plain Eq. 7, 0 keeps only the
             orthogonal component.
+        noise_temperature: τ > 0: the initial noise z_T is drawn from N(0, τ²I) (reduced-temperature
+            sampling, as Glow's temperature T, Kingma & Dhariwal 2018). 1 (default) is the reverse
+            process as trained; below 1 the seed decides less of the output. With a deterministic
+            scheduler (DDIM, η = 0: Song et al. 2021 §4.1) z_T is its only randomness; a stochastic
+            scheduler's per-step noise is not scaled.
         num_inference_steps: reverse steps; ``None`` uses the scheduler's.
         scheduler: the scheduler node used when none is passed to the factory.
     """
@@ -79,6 +85,7 @@ class InpaintingConfig:
     guidance_interval: list[int] | None = None
     guidance_rescale: float = 0.0
     guidance_parallel: float = 1.0
+    noise_temperature: float = 1.0
 
 
 def forecast_mask(batch: int, length: int, seed_frames: int) -> Tensor:
@@ -109,6 +116,7 @@ class InpaintingSampler:
         self.cfg = cfg
         self.scheduler = scheduler
         self.guidance = Guidance.of(cfg)
+        self.temperature = check_noise_temperature(cfg.noise_temperature)
 
     def preset_mask(self, batch: int, length: int) -> Tensor:
         """The configured preset's ``(batch, length)`` known-frame mask."""
@@ -177,6 +185,7 @@ class InpaintingSampler:
                 return torch.where(mask, value, x)
 
         x_T = make_noise(noise if noise is not None else known.shape, generator, device, dtype)
+        x_T = x_T * self.temperature
         if x_T.shape != known.shape:
             raise ValueError(f"noise: shape {tuple(x_T.shape)} differs from known {tuple(known.shape)}")
         scale = self.cfg.guidance_scale if guidance_scale is None else float(guidance_scale)
