@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 
 from momu.following import DanceGenerator, dataset_node, load_pairs, run_benchmark
+from momu.following.analysis import analyse_audio, analyse_motion
+from momu.following.benchmark import analyse_inputs, rejudge
+from momu.following.calibration import calibration_responder
+from momu.following.inputs import Request, make_input
 from momu.following.signals import song_beats
+from momu.following.tempo import beat_tempo
 
 
 @pytest.fixture(scope="module")
@@ -67,6 +72,26 @@ def test_a_dance_on_the_beat_follows_and_a_frozen_one_does_not(pairs: list) -> N
     assert frozen["beat_phase_bailando"]["estimate"] == 0.0
     assert rows["half_beat_shift"]["tests"]["beat_phase_bailando"]["raw_verdict"] == "fails"
     assert rows["static"]["realism"]["joint_speed"]["verdict"] == "fails"
+
+
+@pytest.mark.parametrize("direction", ["dance", "music"])
+def test_the_input_tempo_row_follows_the_input_tempo_and_nothing_else(pairs: list, direction: str) -> None:
+    res = run_benchmark(
+        pairs, direction=direction, seeds=[0, 1], calibration=("ground_truth", "input_tempo"), progress=False
+    )
+    row = next(r for r in res["rows"] if r["id"] == "input_tempo")
+    assert row["tests"]["tempo_following"]["raw_verdict"] == "passes"
+    assert row["tests"]["tempo_following"]["expected"] == "passes"
+    assert row["tests"]["input_sensitivity"]["raw_verdict"] == "passes"
+    assert row["tests"]["input_sensitivity"]["seed_distance"]["estimate"] == 0.0  # a function of the input
+    beats = [song.beats for song in analyse_inputs(pairs).songs]
+    request = Request(0, seed=0, factor=1.25)
+    out, rate = calibration_responder("input_tempo", direction, pairs, beats)(request)
+    x, x_rate = make_input(direction, pairs, request, beats)
+    if direction == "music":  # clicks at the tempo the benchmark reads from the input dance
+        assert analyse_audio(out, int(rate)).tempo == pytest.approx(analyse_motion(x, x_rate).tempo, rel=0.03)
+    else:  # up on one beat, down on the next: the joint speed peaks once per beat
+        assert analyse_motion(out, rate).tempo == pytest.approx(beat_tempo(beats[0]) * 1.25, rel=0.03)
 
 
 def test_the_recipe_end_to_end_with_ground_truth_only(tmp_path: Path) -> None:
@@ -139,3 +164,33 @@ def test_a_folder_of_generated_dances_is_scored_like_its_ground_truth(tmp_path: 
     g, gt = rows["generated:gen"]["tests"], rows["ground_truth"]["tests"]
     assert g["beat_phase_bailando"]["estimate"] == pytest.approx(gt["beat_phase_bailando"]["estimate"])
     assert g["input_sensitivity"]["verdict"] == g["tempo_following"]["verdict"] == "needs a generator"
+
+
+def _slope_rows(**slopes: tuple[float, float, float]) -> dict:
+    rows = []
+    for name, (est, low, high) in slopes.items():
+        kind = "generator" if name.startswith("gen") else "calibration"
+        cell = {"estimate": est, "low": low, "high": high, "songs": 6, "seeds": 3}
+        rows.append({"id": name, "kind": kind, "tests": {"tempo_following": cell}})
+    return {"rows": rows}
+
+
+def test_an_exact_follower_of_the_input_tempo_widens_what_counts_as_following() -> None:
+    # Dance with Melody val, dance → music: the real songs follow their stretch at 0.9986 [0.9976,
+    # 0.9996], clicks at the input dance's tempo at 1.009 [1.0002, 1.026]; a generator at 1.016
+    # [1.0001, 1.037] follows as well as the clicks do
+    res = rejudge(
+        _slope_rows(
+            ground_truth=(0.9986, 0.9976, 0.9996),
+            input_tempo=(1.009, 1.0002, 1.026),
+            gen_follows=(1.016, 1.0001, 1.037),
+            gen_half=(0.6, 0.3, 0.95),
+        )
+    )
+    verdicts = {r["id"]: r["tests"]["tempo_following"]["verdict"] for r in res["rows"]}
+    assert verdicts["gen_follows"] == "passes"
+    assert verdicts["gen_half"] == "fails"  # disjoint from both exact followers
+    assert verdicts["input_tempo"] == "fails"  # a calibration row is judged against ground truth alone
+    # without the input_tempo row (results written before it existed) ground truth alone decides
+    old = rejudge(_slope_rows(ground_truth=(0.9986, 0.9976, 0.9996), gen_follows=(1.016, 1.0001, 1.037)))
+    assert old["rows"][1]["tests"]["tempo_following"]["verdict"] == "fails"

@@ -32,6 +32,7 @@ __all__ = [
     "NOISE_M",
     "BOB_M",
     "requests",
+    "bobbing_pose",
 ]
 
 FACTORS = (0.8, 0.9, 1.1, 1.25)
@@ -68,6 +69,16 @@ def requests(
             else:
                 out += [Request(-1, s, control=c) for s in seeds]
     return out
+
+
+def bobbing_pose(pose: np.ndarray, frames: int, fps: float, bpm: float) -> np.ndarray:
+    """``pose`` ``(1, J, D)`` held for ``frames`` frames at ``fps``, bobbing up and down (axis 1) by
+    :data:`BOB_M` once per beat at ``bpm`` (the ``metronome`` control; the ``input_tempo`` calibration
+    row of the dance direction)."""
+    t = np.arange(frames) / fps
+    bob = np.repeat(pose, frames, axis=0)
+    bob[..., 1] += BOB_M * np.sin(2 * np.pi * bpm / 60.0 * t)[:, None]
+    return bob
 
 
 def _rng(request: Request) -> np.random.Generator:
@@ -109,8 +120,5 @@ def make_input(
         if request.control == "metronome":
             b = beats[request.song]
             bpm = 60.0 / float(np.median(np.diff(b))) if len(b) > 1 else 120.0
-            t = np.arange(frames) / first.fps
-            bob = held.copy()
-            bob[..., 1] += BOB_M * np.sin(2 * np.pi * bpm / 60.0 * t)[:, None]
-            return bob, first.fps
+            return bobbing_pose(pose, frames, first.fps, bpm), first.fps
     raise ValueError(f"control {request.control!r} is not one of {CONTROLS[direction]}")
