@@ -24,7 +24,8 @@ get no answer: the real data has none):
 :data:`MUST_FAIL` says which tests a row is built to fail; one that passes such a test shows the test
 cannot see what it claims on this data, and the generator gets no verdict on it. :data:`MUST_PASS` says
 which tests a row other than ``ground_truth`` (which must pass every test) is built to pass; the report
-names any it does not (nothing is gated on it).
+names any it does not. A generator's tempo-following slope is judged against ground truth's interval and
+``input_tempo``'s together (:func:`momu.following.benchmark.rejudge`): both follow the input exactly.
 """
 
 from __future__ import annotations

@@ -17,8 +17,9 @@ tell").
 * ``not_below`` (input sensitivity: "not distinguishable from, or above") — ``fails`` only when the
   whole interval lies below ``t``, else ``passes``;
 * ``slope`` (tempo following) — ``passes`` when the interval excludes 0 (above it) *and* is consistent
-  with ground truth's slope on the same data (the two intervals overlap: ground truth's value is an
-  estimate too); ``fails`` when it lies at or below 0 or is disjoint from ground truth's interval;
+  with the slope of an exact follower on the same data (the intervals overlap: its value is an estimate
+  too; the reference interval is ground truth's, for a generator widened to the ``input_tempo``
+  calibration row's); ``fails`` when it lies at or below 0 or is disjoint from the reference interval;
 * ``within`` (realism) — ``passes`` when the estimate lies inside the real data's 5th-95th percentile.
 
 :func:`gate` then withholds a generator's verdict on a test that ground truth does not pass on the same
