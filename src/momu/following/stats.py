@@ -107,8 +107,8 @@ def song_seed_bootstrap(
 def verdict(est: Estimate, rule: str, threshold: float = 0.0, reference: Any = None) -> str:
     """The verdict of ``est`` under ``rule`` (``above``, ``not_below``, ``slope``, ``within``).
 
-    ``reference``: for ``slope`` the ground truth's interval ``(low, high)``; for ``within`` the upper
-    bound (``threshold`` is the lower one).
+    ``reference``: for ``slope`` the reference interval ``(low, high)`` (ground truth's, or its hull
+    with ``input_tempo``'s); for ``within`` the upper bound (``threshold`` is the lower one).
     """
     if not np.isfinite(est.estimate):
         return CANNOT_TELL  # nothing measured (e.g. input sensitivity with one seed)
