@@ -365,3 +365,27 @@ def test_clip_helpers_use_the_clips_fields(tmp_path: Path) -> None:
         clip_beat_figure(tmp_path / "c1.png", short)
     with pytest.raises(ValueError, match="clip 'm': has no motion"):
         clip_animation(tmp_path / "m.gif", Clip(id="m", motion=None, fps=FPS, skeleton="smpl24"))
+
+
+def test_the_clock_is_pasted_back_pixel_for_pixel_between_its_changes() -> None:
+    from momu.render.skeleton import _blit_frames, new_figure
+
+    def frames(cache: bool) -> list[np.ndarray]:
+        fig = new_figure((3.0, 3.0), 60)
+        ax = fig.subplots()
+        ax.set_xlim(0, 1)
+        ax.set_ylim(0, 1)
+        ax.set_title("a title", loc="left")
+        clock = ax.set_title("", loc="right")
+        line = ax.plot([], [])[0]
+
+        def update(i: int) -> list:
+            line.set_data([0.0, 1.0], [0.1 * i, 1.0 - 0.1 * i])
+            clock.set_text(f"t = {i // 3:5.1f} s")  # changes every third frame
+            return [line, clock]
+
+        images = _blit_frames(fig, update, [line, clock], list(range(8)), clock if cache else None)
+        return [im.copy() for im in images]
+
+    for cached, drawn in zip(frames(True), frames(False), strict=True):
+        np.testing.assert_array_equal(cached, drawn)
