@@ -31,7 +31,6 @@ from typing import Any
 import numpy as np
 
 from momu.config import ConfigError, build_component, load_config, save_config, to_container
-from momu.config.schema import RecipeConfig
 from momu.errors import one_line
 from momu.io import write_json
 
@@ -83,6 +82,8 @@ def train_config(
     overrides: Sequence[str] = (),
 ) -> Any:
     """The validated config of a training run: the method's base YAML, the preset, the data, overrides."""
+    from momu.config.schema import RecipeConfig  # imports torch: not when `momu` builds its parser
+
     recipe = _recipe(method)
     if preset not in recipe.PRESETS:
         raise ConfigError(f"--preset {preset}: valid presets for {method}: {', '.join(recipe.PRESETS)}")

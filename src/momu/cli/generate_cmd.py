@@ -138,8 +138,6 @@ def _load(record: ModelRecord) -> Any:
 
 
 def _dance(args: argparse.Namespace) -> list[Path]:
-    from momu.generation.momu_long import music_to_motion_long, plan_for_seconds
-
     outputs = resolve_outputs(args.out, formats(args.format), DANCE_FORMATS, "dance")
     song = read_song(args.music, args.seconds)
     song_warnings(song)
@@ -157,6 +155,8 @@ def _dance(args: argparse.Namespace) -> list[Path]:
         motion, fps = generate_method_dance(record, song, args.seed)
         skeleton = record.skeleton
     else:
+        from momu.generation.momu_long import music_to_motion_long, plan_for_seconds  # after the checks
+
         model = _load(record)
         plan = plan_for_seconds(model, song.duration, "motion")
         with progress(len(plan.starts), "generating the dance", "window", args.quiet) as update:
@@ -185,7 +185,6 @@ def _dance(args: argparse.Namespace) -> list[Path]:
 def _music(args: argparse.Namespace) -> list[Path]:
     from momu.features.convert import stand_on_floor
     from momu.features.skeletons import get_skeleton
-    from momu.generation.momu_long import motion_to_music_long, plan_for_seconds
 
     outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
     given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
@@ -199,6 +198,8 @@ def _music(args: argparse.Namespace) -> list[Path]:
         model_input = stand_on_floor(model_input, get_skeleton(record.skeleton).root).astype(np.float32)
     check_space(outputs, motion.shape[0] / given.fps)
     log.info("music for %s: %.1f s at %g fps", args.motion, motion.shape[0] / given.fps, given.fps)
+    from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
+
     model = _load(record)
     plan = plan_for_seconds(model, motion.shape[0] / given.fps, "music")
     with progress(len(plan.starts), "generating the music", "window", args.quiet) as update:
