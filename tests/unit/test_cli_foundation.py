@@ -89,17 +89,20 @@ def test_generate_lets_waiting_openmp_threads_sleep(monkeypatch: pytest.MonkeyPa
 
 
 def test_help_and_input_errors_do_not_load_torch(tmp_path: Path) -> None:
-    """`momu --help` and a generate command with a missing song answer without importing torch,
-    diffusers or the metrics (seconds of imports: `momu --help` took 8-10 s on 2 cores when they did)."""
+    """`momu --help`, a generate command with a missing song and `momu eval` with a missing folder answer
+    without importing torch, diffusers or the metrics (`momu --help` took 7-10 s on 2 cores when they did)."""
     heavy = ("torch", "diffusers", "librosa", "momu.metrics")
     code = (
         "import sys\n"
         "from momu.cli import build_parser, main\n"
         "build_parser()\n"
-        f"status = main(['generate', 'dance', '--music', {str(tmp_path / 'absent.wav')!r}, '--out', 'o'])\n"
-        f"print(status, [m for m in {heavy!r} if m in sys.modules])\n"
+        f"dance = main(['generate', 'dance', '--music', {str(tmp_path / 'absent.wav')!r}, '--out', 'o'])\n"
+        "scores = main(['eval', '--gen', 'absent_dir', '--gt', '.', '--metrics', 'bas'])\n"
+        f"print(dance, scores, [m for m in {heavy!r} if m in sys.modules])\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
-    assert proc.stdout.split() == ["2", "[]"], proc.stdout + proc.stderr
-    assert "absent.wav" in proc.stderr and "not found" in proc.stderr
+    assert proc.stdout.split() == ["2", "2", "[]"], proc.stdout + proc.stderr
+    errors = proc.stderr.strip().splitlines()
+    assert "absent.wav" in errors[0] and "not found" in errors[0]
+    assert "absent_dir" in errors[1] and "not found" in errors[1]
     assert not (tmp_path / "o").exists()

@@ -52,6 +52,14 @@ def add_parser(sub: Any) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from momu.cli.eval_run import run  # the metrics load only when scoring (6 s of imports)
+    from momu.cli.eval_inputs import EvalInputError, collect_folder
+    from momu.errors import UsageError
+
+    for folder in (args.gen, args.gt):  # a missing folder answers before the metrics load (6 s)
+        try:
+            collect_folder(folder)
+        except EvalInputError as exc:
+            raise UsageError(str(exc)) from None
+    from momu.cli.eval_run import run
 
     return run(args)

@@ -28,7 +28,6 @@ from momu.data.motion_files import MAX_MOTION_BYTES
 from momu.data.npz_arrays import npz_keys, read_npz_array
 from momu.data.types import Clip
 from momu.io import read_json
-from momu.metrics._audio import read_audio
 
 __all__ = ["EvalInputError", "LazyClip", "collect_folder", "load_pairs", "MOTION_SUFFIXES", "AUDIO_SUFFIXES"]
 
@@ -118,6 +117,8 @@ def _checked_motion(path: Path, arr: np.ndarray) -> np.ndarray:
 
 
 def _read_audio(path: Path) -> tuple[np.ndarray, int]:
+    from momu.metrics._audio import read_audio  # loads every metric: not for `momu eval`'s input checks
+
     try:
         return read_audio(path)
     except (FileNotFoundError, ValueError) as exc:
