@@ -93,15 +93,14 @@ def main() -> None:
         for s in ("train", "val", "test")
     }
     songs = {s: [song_tempo(q) for q in pairs] for s, pairs in splits.items()}
+    windows = []  # (train pair, offset, its song's tempo): the references, whatever the envelope
+    for q in splits["train"]:
+        length = min(len(q.motion) / q.fps, len(q.audio) / q.sample_rate) - q.start - SECONDS
+        windows += [(q, off, song_tempo(q, off)) for off in np.arange(0.0, length, HOP_S)]
+    windows = [w for w in windows if np.isfinite(w[2])]
     out: dict = {"excerpt_s": SECONDS, "max_scale": MAX_SCALE, "summary": {}, "dances": []}
     for envelope in ENVELOPES:
-        refs = []
-        for q in splits["train"]:
-            length = min(len(q.motion) / q.fps, len(q.audio) / q.sample_rate) - q.start - SECONDS
-            for off in np.arange(0.0, length, HOP_S):
-                tempo = song_tempo(q, off)
-                if np.isfinite(tempo):
-                    refs.append((q.id, describe(q, off, envelope), tempo))
+        refs = [(q.id, describe(q, off, envelope), tempo) for q, off, tempo in windows]
         for split, pairs in splits.items():
             own = songs[split]
             score, ceiling = [], []
