@@ -174,6 +174,38 @@ def test_labels_rename_generator_rows(tmp_path: Path):
     )
 
 
+def test_training_seeds_put_each_seeds_verdicts_side_by_side(tmp_path: Path):
+    seeds = [_results(f"momu:s{k}", 0.2 + k) for k in range(3)]
+    for direction in ("dance", "music"):  # seed 2 fails input sensitivity where seeds 0 and 1 pass it
+        seeds[2]["directions"][direction]["rows"][2]["tests"]["input_sensitivity"]["verdict"] = "fails"
+    sources = []
+    for k, res in enumerate(seeds):
+        sources.append(tmp_path / f"s{k}.json")
+        sources[-1].write_text(json.dumps(res))
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(_results("mofusion:m2", 0.5, "smpl24", ("dance",))))
+    spec = ["--training-seeds", "MoMu #7=momu:s0,momu:s1,momu:s2", "--label", "momu:s1=seed one"]
+    assert main([*map(str, sources), str(other), "--out", str(tmp_path / "t"), *spec]) == 0
+    records = json.loads((tmp_path / "t" / "results.json").read_text())["across_training_seeds"]
+    assert [(r["recipe"], r["direction"]) for r in records] == [("MoMu #7", "dance"), ("MoMu #7", "music")]
+    for rec in records:
+        assert rec["models"] == ["momu:s0", "seed one", "momu:s2"]
+        assert rec["tests"]["input_sensitivity"] == ["passes", "passes", "fails"]
+        assert rec["tests"]["tempo_following"] == ["fails"] * 3
+        assert rec["follows"] == [False] * 3  # tempo following fails at every seed
+        assert rec["holds"] is False
+    md = (tmp_path / "t" / "results.md").read_text()
+    row = _md_row(md.split("## Across training seeds")[1], "MoMu #7", "music → dance")
+    assert row[4:6] == ["passes / passes / fails", "fails / fails / fails"]
+    assert row[-2:] == ["no / no / no", "**no**"]
+    # a recipe whose seeds agree holds; a table without --training-seeds has no such section
+    table = collect(
+        [(str(p), json.loads(p.read_text())) for p in sources[:2]], None, {"r": ["momu:s0", "momu:s1"]}
+    )
+    assert all(rec["holds"] is True for rec in table["across_training_seeds"])
+    assert "Across training seeds" not in markdown(collect([(str(other), json.loads(other.read_text()))]))
+
+
 @pytest.mark.parametrize(
     ("content", "extra", "message"),
     [
@@ -186,6 +218,12 @@ def test_labels_rename_generator_rows(tmp_path: Path):
             "no ground_truth row",
         ),
         (json.dumps(_results("momu:m1", 0.2)), ["--label", "momu:m1"], "expected ROW_ID=NAME"),
+        (json.dumps(_results("momu:m1", 0.2)), ["--training-seeds", "r=momu:m1"], "expected NAME=ROW_ID"),
+        (
+            json.dumps(_results("momu:m1", 0.2)),
+            ["--training-seeds", "r=momu:m1,momu:absent"],
+            "no generator row 'momu:absent'",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path: Path, capsys, content, extra, message):

@@ -8,6 +8,10 @@ and verdict **as the run gave it** (the gated verdict, never recomputed here), p
 row on the same data (its own raw verdicts) and a column naming the tests ground truth passes there — a
 model's verdict on any other test is "no verdict". Music → dance rows also get a realism table.
 
+``--training-seeds NAME=ID,ID,...`` declares generator rows to be one recipe trained at several seeds; the
+table then adds, per recipe × direction × data, each seed's verdict side by side and whether the verdict
+holds at every seed (a verdict about one trained model says nothing about the next training run).
+
 Writes ``DIR/results.json`` (every cell, with the source file, command, commit and wall time of each run)
 and ``DIR/results.md``. A missing or malformed file, a bad ``--label`` or an unwritable ``--out`` prints
 one line ``which_models_follow: error: ...`` and exits with status 2, writing nothing.
@@ -28,7 +32,7 @@ from momu.following.realism import REALISM_KEYS
 from momu.following.report import DIRECTION_TITLES, format_cell
 from momu.io import atomic_write_text, check_output_dir, write_json
 
-__all__ = ["SHORT_TITLES", "collect", "markdown", "load_results", "main"]
+__all__ = ["SHORT_TITLES", "across_training_seeds", "collect", "markdown", "load_results", "main"]
 
 log = logging.getLogger("which_models_follow")
 PROG = "which_models_follow"
@@ -92,13 +96,17 @@ def _cells(tests: Mapping[str, Any], keys: Sequence[str]) -> dict[str, dict[str,
 
 
 def collect(
-    sources: Sequence[tuple[str, Mapping[str, Any]]], labels: Mapping[str, str] | None = None
+    sources: Sequence[tuple[str, Mapping[str, Any]]],
+    labels: Mapping[str, str] | None = None,
+    training_seeds: Mapping[str, Sequence[str]] | None = None,
 ) -> dict[str, Any]:
     """The table of ``sources`` (``(name, results)`` pairs, in order): one group per data × direction.
 
     A group holds ground truth's row (its verdicts are its raw ones: calibration rows are not gated) and every
     generator row run on the same data, in source order. Runs on identical data share one group (their
-    ground-truth rows are the same; the first one's is kept). ``labels`` renames generator rows by id.
+    ground-truth rows are the same; the first one's is kept). ``labels`` renames generator rows by id;
+    ``training_seeds`` maps a recipe's name to the row ids of its training seeds
+    (:func:`across_training_seeds`); an id that no source holds raises :class:`TableInputError`.
     """
     labels = dict(labels or {})
     groups: dict[tuple[str, str], dict[str, Any]] = {}
@@ -130,12 +138,65 @@ def collect(
             for r in res["rows"]:
                 if r.get("kind") == "generator":
                     groups[key]["rows"].append(_row(r, labels.get(r["id"], r["id"]), "generator", name))
-    return {
+    table: dict[str, Any] = {
         "table": "which_models_follow",
         "tests": list(TESTS),
         "groups": list(groups.values()),
         "runs": runs,
     }
+    if training_seeds:
+        table["across_training_seeds"] = across_training_seeds(table["groups"], training_seeds)
+    return table
+
+
+def across_training_seeds(
+    groups: Sequence[Mapping[str, Any]], recipes: Mapping[str, Sequence[str]]
+) -> list[dict[str, Any]]:
+    """Per recipe × data × direction: each training seed's verdicts, and whether they agree.
+
+    ``recipes`` maps a name to the generator row ids of one recipe trained at several seeds. A record holds
+    the members found in that group (``models``), per test the list of their verdicts, ``follows`` (per
+    member: every test ground truth passes there passes) and ``holds`` (every member gives the same verdict
+    on every test and the same ``follows``; None when only one member ran on that data).
+    """
+    present = {r["id"] for g in groups for r in g["rows"] if r["kind"] == "generator"}
+    seen: set[str] = set()
+    for name, ids in recipes.items():
+        for row_id in ids:
+            if row_id not in present:
+                raise TableInputError(f"--training-seeds {name}: no generator row {row_id!r} in the results")
+            if row_id in seen:
+                raise TableInputError(f"--training-seeds: row {row_id!r} named in two recipes")
+            seen.add(row_id)
+    records = []
+    for name, ids in recipes.items():
+        for g in groups:
+            members = [r for i in ids for r in g["rows"] if r["id"] == i and r["kind"] == "generator"]
+            if not members:
+                continue
+            tests = {t: [r["tests"].get(t, {}).get("verdict", "—") for r in members] for t in TESTS}
+            gt_passes = g["ground_truth_passes"]
+            follows = [
+                bool(gt_passes) and all(tests[t][k] == "passes" for t in gt_passes)
+                for k in range(len(members))
+            ]
+            records.append(
+                {
+                    "recipe": name,
+                    "direction": g["direction"],
+                    "data": g["data"],
+                    "ground_truth_passes": list(g["ground_truth_passes"]),
+                    "models": [r["label"] for r in members],
+                    "tests": tests,
+                    "follows": follows,
+                    "holds": (
+                        len(set(follows)) == 1 and all(len(set(v)) == 1 for v in tests.values())
+                        if len(members) > 1
+                        else None
+                    ),
+                }
+            )
+    return records
 
 
 def _row(row: Mapping[str, Any], label: str, kind: str, source: str) -> dict[str, Any]:
@@ -198,6 +259,8 @@ def markdown(table: Mapping[str, Any]) -> str:
                     cells = [format_cell(r.get("realism", {}).get(k)) for k in REALISM_KEYS]
                     lines.append(f"| {r['label']} | {g['data']} | " + " | ".join(cells) + " |")
         lines.append("")
+    if table.get("across_training_seeds"):
+        lines += _seeds_markdown(table["across_training_seeds"])
     lines += [
         "## Runs",
         "",
@@ -210,6 +273,50 @@ def markdown(table: Mapping[str, Any]) -> str:
             f"| {run['source']} | {run['generator']} | {run['data']} | {commit} | {run.get('wall_time_s')} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _seeds_markdown(records: Sequence[Mapping[str, Any]]) -> list[str]:
+    lines = [
+        "## Across training seeds",
+        "",
+        "One recipe trained at several seeds: each seed's verdict, in the order of the models column. "
+        "*follows* = passes every test ground truth passes on that data. **holds** = every training seed "
+        "gives the same verdicts.",
+        "",
+        "| recipe | direction | data | models | "
+        + " | ".join(SHORT_TITLES[t] for t in TESTS)
+        + " | follows | holds across seeds |",
+        "|---" * (len(TESTS) + 6) + "|",
+    ]
+    for rec in records:
+        cells = [" / ".join(_short_verdict(v) for v in rec["tests"][t]) for t in TESTS]
+        follows = " / ".join("yes" if f else "no" for f in rec["follows"])
+        lines.append(
+            f"| {rec['recipe']} | {DIRECTION_TITLES[rec['direction']]} | {rec['data']} | "
+            f"{'; '.join(rec['models'])} | " + " | ".join(cells) + f" | {follows} | "
+            f"{_HOLDS_TEXT[rec['holds']]} |"
+        )
+    return [*lines, ""]
+
+
+_HOLDS_TEXT = {True: "**yes**", False: "**no**", None: "one seed only"}
+
+
+def _short_verdict(verdict: str) -> str:
+    return "no verdict" if verdict.startswith("no verdict") else verdict
+
+
+def _parse_training_seeds(items: Sequence[str]) -> dict[str, list[str]]:
+    recipes: dict[str, list[str]] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        ids = [i for i in value.split(",") if i]
+        if not sep or not name or len(ids) < 2:
+            raise TableInputError(f"--training-seeds {item!r}: expected NAME=ROW_ID,ROW_ID[,...]")
+        if name in recipes:
+            raise TableInputError(f"--training-seeds {item!r}: recipe {name!r} given twice")
+        recipes[name] = ids
+    return recipes
 
 
 def _parse_labels(items: Sequence[str]) -> dict[str, str]:
@@ -235,6 +342,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ROW_ID=NAME",
         help="show generator row ROW_ID (e.g. momu:momu-ab00d4f89fef) as NAME; repeatable",
     )
+    p.add_argument(
+        "--training-seeds",
+        action="append",
+        default=[],
+        metavar="NAME=ROW_ID,ROW_ID",
+        help="the rows are one recipe trained at several seeds: compare their verdicts; repeatable",
+    )
     return p
 
 
@@ -243,15 +357,16 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         labels = _parse_labels(args.label)
+        recipes = _parse_training_seeds(args.training_seeds)
         try:
             check_output_dir(args.out)
         except ValueError as exc:
             raise TableInputError(str(exc)) from None
         sources = [(str(p), load_results(p)) for p in args.results]
+        table = collect(sources, labels, recipes)
     except TableInputError as exc:
         sys.stderr.write(f"{PROG}: error: {exc}\n")
         return 2
-    table = collect(sources, labels)
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / "results.json", table)
     atomic_write_text(args.out / "results.md", markdown(table))
