@@ -221,3 +221,14 @@ def test_every_public_name_of_the_benchmark_resolves() -> None:
     assert set(following.__all__) <= set(dir(following))
     with pytest.raises(AttributeError, match="no_such_name"):
         following.no_such_name  # noqa: B018
+
+
+def test_a_data_folder_is_recorded_by_its_absolute_path(tmp_path: Path, monkeypatch) -> None:
+    """Runs on one folder, named relatively or absolutely, share one group in the collected table."""
+    (tmp_path / "dwm" / "DANCE_C_1").mkdir(parents=True)
+    (tmp_path / "pairs").mkdir()
+    monkeypatch.chdir(tmp_path)
+    relative = dataset_node("dwm", "val", "dwm21", 10.0, 2)
+    assert relative["name"] == "dance_with_melody"
+    assert relative == dataset_node(str(tmp_path / "dwm"), "val", "dwm21", 10.0, 2)
+    assert dataset_node("pairs", "val", "dwm21", 10.0, 2)["root"] == str(tmp_path / "pairs")

@@ -75,7 +75,7 @@ def dataset_node(data: str, split: str, skeleton: str, seconds: float, songs: in
             "split": split,
             "seed": 0,
         }
-    root = Path(data)
+    root = Path(data).resolve()  # one spelling per folder: the table groups runs by this node
     if any(p.is_dir() and p.name.startswith("DANCE_") for p in root.iterdir()):
         return {
             "name": "dance_with_melody",
