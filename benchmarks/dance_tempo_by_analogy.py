@@ -24,12 +24,11 @@ split was scored; nothing was tuned.
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
-from pathlib import Path
 
 import numpy as np
+from study_common import study_args, write_study  # benchmarks/study_common.py
 
 from momu.features.rhythm import ENVELOPE_RATE, motion_envelope
 from momu.following.analysis import analyse_audio
@@ -83,11 +82,7 @@ def best_alignment(query: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", default="../shared/data/dance_with_melody")
-    p.add_argument("--out", type=Path, default=Path("benchmarks/results/dance_tempo_by_analogy.json"))
-    args = p.parse_args()
+    args = study_args(__doc__, "dance_tempo_by_analogy")
     splits = {
         s: load_pairs(dataset_node(args.data, s, "dwm21", SECONDS, 100), SECONDS, None)
         for s in ("train", "val", "test")
@@ -125,8 +120,7 @@ def main() -> None:
                 "ground_truth": [round(v, 3) for v in (gt.estimate, gt.low, gt.high)],
             }
     log.info("%s", json.dumps(out["summary"], indent=1))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n")
+    write_study(args.out, out)
 
 
 if __name__ == "__main__":

@@ -33,12 +33,10 @@ alone can reach.
 
 from __future__ import annotations
 
-import argparse
-import json
 import logging
-from pathlib import Path
 
 import numpy as np
+from study_common import study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, motion_envelope, track_beats
@@ -104,11 +102,7 @@ def tempo_match_ceiling(rows: list[dict], key: str) -> dict[str, dict[str, list[
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", default="../shared/data/dance_with_melody", help="a folder, or synth")
-    p.add_argument("--out", type=Path, default=Path("benchmarks/results/dance_tempo_vs_song.json"))
-    args = p.parse_args()
+    args = study_args(__doc__, "dance_tempo_vs_song", data_help="a folder, or synth")
     node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
     if args.data == "synth":
         node = {**SYNTH, "min_seconds": START_S + SECONDS + 1.0, "max_seconds": START_S + SECONDS + 1.0}
@@ -161,10 +155,7 @@ def main() -> None:
         for key in ("periodogram_bpm", "motion_rhythm_periodogram_bpm"):
             summary[f"tempo_match_ceiling_{key}"] = tempo_match_ceiling(rows, key)
     log.info("%s", summary)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(
-        json.dumps({"excerpt_s": [START_S, SECONDS], "summary": summary, "dances": rows}, indent=2) + "\n"
-    )
+    write_study(args.out, {"excerpt_s": [START_S, SECONDS], "summary": summary, "dances": rows})
 
 
 if __name__ == "__main__":

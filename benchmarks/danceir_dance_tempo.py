@@ -27,14 +27,12 @@ here before it is imported.
 
 from __future__ import annotations
 
-import argparse
-import json
 import logging
 import sys
-from pathlib import Path
 
 import librosa
 import numpy as np
+from study_common import study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.skeletons import get_skeleton
@@ -83,11 +81,7 @@ def chance(row: dict, group: list[dict], key: str) -> float:
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", default="../shared/data/dance_with_melody")
-    p.add_argument("--out", type=Path, default=Path("benchmarks/results/danceir_dance_tempo.json"))
-    args = p.parse_args()
+    args = study_args(__doc__, "danceir_dance_tempo")
     np.complex_ = np.complex128  # type: ignore[attr-defined]  # danceir 1.0.0 uses the NumPy 1 alias
     try:
         from danceir.pipelines.tempo_estimation import estimate_tempo_from_keypoints
@@ -127,10 +121,7 @@ def main() -> None:
         for split in ("train", "val", "test")
         if (group := [r for r in rows if r["split"] == split])
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(
-        json.dumps({"excerpt_s": [LEAD_S, SECONDS], "summary": summary, "dances": rows}, indent=1) + "\n"
-    )
+    write_study(args.out, {"excerpt_s": [LEAD_S, SECONDS], "summary": summary, "dances": rows}, indent=1)
     log.info(
         "song tempo read within 5 %% (×1 ×2 ×½ ×3 ×⅓), own song vs others: %s; wrote %s", summary, args.out
     )

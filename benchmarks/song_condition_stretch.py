@@ -15,10 +15,9 @@ octave, as the benchmark folds ratios).
 
 from __future__ import annotations
 
-import argparse
-import json
 import logging
-from pathlib import Path
+
+from study_common import study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, music_envelope, track_beats
@@ -38,11 +37,7 @@ log = logging.getLogger("song_condition_stretch")
 
 
 def main() -> None:
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--data", default="../shared/data/dance_with_melody")
-    p.add_argument("--out", type=Path, default=Path("benchmarks/results/song_condition_stretch.json"))
-    args = p.parse_args()
+    args = study_args(__doc__, "song_condition_stretch")
     ds = build_component(dataset_node(args.data, "all", "dwm21", SECONDS, 8), "datasets")
     rows = []
     for i in range(len(ds)):
@@ -70,12 +65,10 @@ def main() -> None:
         for split in ("train", "val", "test")
         if (group := [r for r in rows if r["split"] == split])
     }
-    args.out.write_text(
-        json.dumps(
-            {"excerpt_s": [START_S, SECONDS], "factors": list(FACTORS), "summary": summary, "songs": rows},
-            indent=1,
-        )
-        + "\n"
+    write_study(
+        args.out,
+        {"excerpt_s": [START_S, SECONDS], "factors": list(FACTORS), "summary": summary, "songs": rows},
+        indent=1,
     )
     log.info("stretches followed within 5 %%: %s; wrote %s", summary, args.out)
 

@@ -222,10 +222,7 @@ def markdown(table: Mapping[str, Any]) -> str:
         "verdict is given only on a test ground truth passes on the same data (last column); elsewhere "
         "it reads *no verdict*. Test definitions and verdict rules: docs/following.md.",
         "",
-        "| model | direction | data | "
-        + " | ".join(SHORT_TITLES[t] for t in TESTS)
-        + " | ground truth passes here |",
-        "|---" * (len(TESTS) + 4) + "|",
+        *_test_header(["model", "direction", "data"], ["ground truth passes here"]),
     ]
     for g in table["groups"]:
         passes = _passes_text(g["ground_truth_passes"])
@@ -275,6 +272,12 @@ def markdown(table: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _test_header(lead: Sequence[str], tail: Sequence[str]) -> list[str]:
+    """A Markdown table's header and rule: ``lead`` columns, one per test, then ``tail``."""
+    titles = [*lead, *(SHORT_TITLES[t] for t in TESTS), *tail]
+    return ["| " + " | ".join(titles) + " |", "|---" * len(titles) + "|"]
+
+
 def _seeds_markdown(records: Sequence[Mapping[str, Any]]) -> list[str]:
     lines = [
         "## Across training seeds",
@@ -283,10 +286,7 @@ def _seeds_markdown(records: Sequence[Mapping[str, Any]]) -> list[str]:
         "*follows* = passes every test ground truth passes on that data. **holds** = every training seed "
         "gives the same verdicts.",
         "",
-        "| recipe | direction | data | models | "
-        + " | ".join(SHORT_TITLES[t] for t in TESTS)
-        + " | follows | holds across seeds |",
-        "|---" * (len(TESTS) + 6) + "|",
+        *_test_header(["recipe", "direction", "data", "models"], ["follows", "holds across seeds"]),
     ]
     for rec in records:
         cells = [" / ".join(_short_verdict(v) for v in rec["tests"][t]) for t in TESTS]

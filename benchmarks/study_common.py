@@ -1,0 +1,33 @@
+"""The command line and output of the Dance with Melody studies under ``benchmarks/`` (one JSON each).
+
+``study_args(__doc__, "name")`` sets up logging and parses ``--data`` (default: the shared Dance with
+Melody copy) and ``--out`` (default ``benchmarks/results/<name>.json``); :func:`write_study` writes the
+result, making its folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+__all__ = ["study_args", "write_study"]
+
+DEFAULT_DATA = "../shared/data/dance_with_melody"
+
+
+def study_args(doc: str, name: str, data_help: str | None = None) -> argparse.Namespace:
+    """Logging at INFO, then the parsed ``--data`` / ``--out`` of study ``name`` (``doc``: its docstring)."""
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("--data", default=DEFAULT_DATA, help=data_help)
+    p.add_argument("--out", type=Path, default=Path(f"benchmarks/results/{name}.json"))
+    return p.parse_args()
+
+
+def write_study(path: Path, result: Any, indent: int = 2) -> None:
+    """``result`` as JSON at ``path`` (its folder made), newline-terminated."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=indent) + "\n")
