@@ -2,16 +2,17 @@
 (issue 32, the dance → music direction's tempo match).
 
     python benchmarks/dance_tempo_by_analogy.py [--data ../shared/data/dance_with_melody] [--out FILE.json]
+    python benchmarks/dance_tempo_by_analogy.py --seconds 30 --out FILE.json  # ..._by_analogy_30s.json
 
 ``dance_tempo_vs_song.py`` reads a tempo from the dance alone and tries fixed multiples of it; this asks
-whether the *training* dances can supply the multiple. Each dance's 15-s excerpt (the music-following
-benchmark's, 2 s in) is described by the spectrum of its motion envelope on a log-BPM axis (20-400 BPM,
-0.5 % steps; log power, standardised). The references are every 15-s window (7.5-s hop) of the train
-split's dances with the tempo of their song's window (librosa's beat grid, as the benchmark reads it). A
-query's tempo is the reference tempo times the time scale ``f`` (within ×1/1.6 … ×1.6) that best aligns
-the query's spectrum with the reference's, taken from the best-correlated (reference, ``f``) — a
-nearest neighbour that learns each kind of dance's ratio of movement to beat and is invariant to
-tempo by construction. Train dances are scored leave-one-dance-out.
+whether the *training* dances can supply the multiple. Each dance's excerpt (``--seconds``, default 15:
+the music-following benchmark's, 2 s in) is described by the spectrum of its motion envelope on a log-BPM
+axis (20-400 BPM, 0.5 % steps; log power, standardised). The references are every window of that length
+(7.5-s hop) of the train split's dances with the tempo of their song's window (librosa's beat grid, as the
+benchmark reads it). A query's tempo is the reference tempo times the time scale ``f`` (within ×1/1.6 …
+×1.6) that best aligns the query's spectrum with the reference's, taken from the best-correlated
+(reference, ``f``) — a nearest neighbour that learns each kind of dance's ratio of movement to beat and is
+invariant to tempo by construction. Train dances are scored leave-one-dance-out.
 
 Scored like the benchmark's dance → music ``tempo_match`` (:func:`momu.following.checks.pair_tests`):
 own song's tempo matched (:func:`momu.following.tempo.tempo_matches`, 5 %, ×1 ×2 ×½ ×3 ×⅓) minus the
@@ -37,7 +38,7 @@ from momu.following.signals import RATE, joint_speed, motion_at_rate
 from momu.following.stats import song_seed_bootstrap
 from momu.following.tempo import tempo_matches
 
-SECONDS, HOP_S = 15.0, 7.5
+HOP_S = 7.5
 LOG_STEP = 0.005
 GRID = np.exp(np.arange(np.log(20.0), np.log(400.0), LOG_STEP))
 MAX_SCALE = 1.6
@@ -84,16 +85,16 @@ def best_alignment(query: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
 def main() -> None:
     args = study_args(__doc__, "dance_tempo_by_analogy")
     splits = {
-        s: load_pairs(dataset_node(args.data, s, "dwm21", SECONDS, 100), SECONDS, None)
+        s: load_pairs(dataset_node(args.data, s, "dwm21", args.seconds, 100), args.seconds, None)
         for s in ("train", "val", "test")
     }
     songs = {s: [song_tempo(q) for q in pairs] for s, pairs in splits.items()}
     windows = []  # (train pair, offset, its song's tempo): the references, whatever the envelope
     for q in splits["train"]:
-        length = min(len(q.motion) / q.fps, len(q.audio) / q.sample_rate) - q.start - SECONDS
+        length = min(len(q.motion) / q.fps, len(q.audio) / q.sample_rate) - q.start - args.seconds
         windows += [(q, off, song_tempo(q, off)) for off in np.arange(0.0, length, HOP_S)]
     windows = [w for w in windows if np.isfinite(w[2])]
-    out: dict = {"excerpt_s": SECONDS, "max_scale": MAX_SCALE, "summary": {}, "dances": []}
+    out: dict = {"excerpt_s": args.seconds, "max_scale": MAX_SCALE, "summary": {}, "dances": []}
     for envelope in ENVELOPES:
         refs = [(q.id, describe(q, off, envelope), tempo) for q, off, tempo in windows]
         for split, pairs in splits.items():

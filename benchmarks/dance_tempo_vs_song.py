@@ -2,15 +2,16 @@
 
     python benchmarks/dance_tempo_vs_song.py [--data ../shared/data/dance_with_melody] [--out FILE.json]
     python benchmarks/dance_tempo_vs_song.py --data synth --out FILE.json   # dance_tempo_vs_song_synth.json
+    python benchmarks/dance_tempo_vs_song.py --seconds 30 --out FILE.json    # dance_tempo_vs_song_30s.json
 
-For every Dance with Melody dance, the 15-s excerpt the music-following benchmark uses (2 s in): the
-song's tempo (:func:`momu.following.analysis.analyse_audio`, the benchmark's periodogram) against the
-dance's tempo as the shipped model's ``motion_rhythm`` condition reads it (librosa's beat tracker on the
-kinematic-onset envelope, :mod:`momu.features.rhythm`), as ``motion_rhythm`` with ``tempo: periodogram``
-reads it (the envelope's dominant period given to the tracker), and as the benchmark reads it
-(periodogram of the mean joint speed). A match is the benchmark's
-(:func:`momu.following.tempo.tempo_matches`: within 5 % of ×1, ×2, ×½, ×3, ×⅓). Writes the per-dance
-tempi and the shares.
+For every Dance with Melody dance, the excerpt the music-following benchmark uses (2 s in; ``--seconds``,
+default 15): the song's tempo (:func:`momu.following.analysis.analyse_audio`, the benchmark's periodogram)
+against the dance's tempo as the shipped model's ``motion_rhythm`` condition reads it (librosa's beat
+tracker on the kinematic-onset envelope, :mod:`momu.features.rhythm`), as ``motion_rhythm`` with ``tempo:
+periodogram`` reads it (the envelope's dominant period given to the tracker), and as the benchmark reads
+it (periodogram of the mean joint speed). A match is the benchmark's
+(:func:`momu.following.tempo.tempo_matches`: within 5 % of ×1, ×2, ×½, ×3, ×⅓). Writes the per-dance tempi
+and the shares.
 
 Stretch: the same excerpt played ×0.8, ×0.9, ×1.1 and ×1.25 faster
 (:func:`momu.following.signals.time_scale_motion`, as the benchmark's tempo-following test does): does
@@ -47,7 +48,7 @@ from momu.following.signals import time_scale_motion
 from momu.following.stats import song_seed_bootstrap
 from momu.following.tempo import beat_tempo, fold_ratio, tempo_matches
 
-START_S, SECONDS = 2.0, 15.0
+START_S = 2.0
 SYNTH = {
     "name": "synth_dance",
     "skeleton": "dwm21",
@@ -105,15 +106,16 @@ def main() -> None:
     args = study_args(__doc__, "dance_tempo_vs_song", data_help="a folder, or synth")
     node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
     if args.data == "synth":
-        node = {**SYNTH, "min_seconds": START_S + SECONDS + 1.0, "max_seconds": START_S + SECONDS + 1.0}
+        length = START_S + args.seconds + 1.0
+        node = {**SYNTH, "min_seconds": length, "max_seconds": length}
     ds = build_component(node, "datasets")
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
-        f0, f1 = int(START_S * clip.fps), int((START_S + SECONDS) * clip.fps)
+        f0, f1 = int(START_S * clip.fps), int((START_S + args.seconds) * clip.fps)
         root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
         motion = (clip.motion + root)[f0:f1]
-        audio = clip.audio[int(START_S * clip.sample_rate) : int((START_S + SECONDS) * clip.sample_rate)]
+        audio = clip.audio[int(START_S * clip.sample_rate) : int((START_S + args.seconds) * clip.sample_rate)]
         song_analysis = analyse_audio(audio, clip.sample_rate)
         song = song_analysis.tempo
         tracked = _tracked(motion, clip.fps)
@@ -155,7 +157,7 @@ def main() -> None:
         for key in ("periodogram_bpm", "motion_rhythm_periodogram_bpm"):
             summary[f"tempo_match_ceiling_{key}"] = tempo_match_ceiling(rows, key)
     log.info("%s", summary)
-    write_study(args.out, {"excerpt_s": [START_S, SECONDS], "summary": summary, "dances": rows})
+    write_study(args.out, {"excerpt_s": [START_S, args.seconds], "summary": summary, "dances": rows})
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
 """Can a dance tempo estimator read the song's tempo from a real Dance with Melody dance? (issue 32)
 
-The dance → music tempo-match test asks the music written for a dance to match its song's tempo (within
-5 % of ×1, ×2, ×½, ×3, ×⅓, :func:`momu.following.tempo.tempo_matches`). A music model can reach that
-only through what the dance shows of the beat. For each dance's benchmark excerpt (15 s from 2 s in),
-this compares with the song's beat-grid tempo (:func:`momu.following.analysis.analyse_audio`, the
-benchmark's reference):
+The dance → music tempo-match test asks the music written for a dance to match its song's tempo (within 5
+% of ×1, ×2, ×½, ×3, ×⅓, :func:`momu.following.tempo.tempo_matches`). A music model can reach that only
+through what the dance shows of the beat. For each dance's benchmark excerpt (``--seconds``, default 15,
+from 2 s in), this compares with the song's beat-grid tempo
+(:func:`momu.following.analysis.analyse_audio`, the benchmark's reference):
 
 * ``danceir`` (PyPI 1.0.0, the issue's suggestion): its multi-anchor estimator
   (``estimate_tempo_from_keypoints``: hands, feet and torso centre of mass, zero-velocity anchors,
@@ -41,7 +41,6 @@ from momu.following.pairs import LEAD_S, dataset_node
 from momu.following.signals import RATE, joint_speed, motion_at_rate
 from momu.following.tempo import periodogram_tempo, tempo_matches
 
-SECONDS = 15.0
 COCO17 = (
     ("head_front",) * 3
     + ("head_back",) * 2
@@ -89,15 +88,15 @@ def main() -> None:
         sys.exit(
             "danceir_dance_tempo.py: error: danceir is not installed (pip install --no-deps danceir==1.0.0)"
         )
-    ds = build_component(dataset_node(args.data, "all", "dwm21", SECONDS, 8), "datasets")
+    ds = build_component(dataset_node(args.data, "all", "dwm21", args.seconds, 8), "datasets")
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
-        f0, f1 = int(LEAD_S * clip.fps), int((LEAD_S + SECONDS) * clip.fps)
+        f0, f1 = int(LEAD_S * clip.fps), int((LEAD_S + args.seconds) * clip.fps)
         root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
         motion = (clip.motion + root)[f0:f1]
         sr = clip.sample_rate
-        song = analyse_audio(clip.audio[int(LEAD_S * sr) : int((LEAD_S + SECONDS) * sr)], sr).beat_tempo
+        song = analyse_audio(clip.audio[int(LEAD_S * sr) : int((LEAD_S + args.seconds) * sr)], sr).beat_tempo
         tempi = estimates(motion, clip.fps, estimate_tempo_from_keypoints)
         rows.append(
             {
@@ -121,7 +120,7 @@ def main() -> None:
         for split in ("train", "val", "test")
         if (group := [r for r in rows if r["split"] == split])
     }
-    write_study(args.out, {"excerpt_s": [LEAD_S, SECONDS], "summary": summary, "dances": rows}, indent=1)
+    write_study(args.out, {"excerpt_s": [LEAD_S, args.seconds], "summary": summary, "dances": rows}, indent=1)
     log.info(
         "song tempo read within 5 %% (×1 ×2 ×½ ×3 ×⅓), own song vs others: %s; wrote %s", summary, args.out
     )

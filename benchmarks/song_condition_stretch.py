@@ -1,12 +1,12 @@
 """Does θ_m's song condition follow a time-stretched real song? (issue 32)
 
-The dance model θ_m is conditioned on ``music_rhythm``: the song's beat phase, tempo and onset
-envelope, its beats placed by librosa's tracker (``tempo: tracker``, the shipped setting) or on the
-onset envelope's periodogram tempo (``tempo: periodogram``, which θ_a's ``motion_rhythm`` uses for the
-dance). A dance can follow a stretched song only as well as its condition does. For each Dance with
-Melody song (the benchmark's 15-s excerpt from 2 s), this reads the condition's tempo (the beat grid's
-median interval) on the excerpt and on it stretched ×0.8, ×0.9, ×1.1, ×1.25 (librosa's phase vocoder,
-as the benchmark stretches it) and counts, per split, the stretches followed within 5 % (up to an
+The dance model θ_m is conditioned on ``music_rhythm``: the song's beat phase, tempo and onset envelope,
+its beats placed by librosa's tracker (``tempo: tracker``, the shipped setting) or on the onset envelope's
+periodogram tempo (``tempo: periodogram``, which θ_a's ``motion_rhythm`` uses for the dance). A dance can
+follow a stretched song only as well as its condition does. For each Dance with Melody song (the
+benchmark's excerpt from 2 s: ``--seconds``, default 15), this reads the condition's tempo (the beat
+grid's median interval) on the excerpt and on it stretched ×0.8, ×0.9, ×1.1, ×1.25 (librosa's phase
+vocoder, as the benchmark stretches it) and counts, per split, the stretches followed within 5 % (up to an
 octave, as the benchmark folds ratios).
 
     python benchmarks/song_condition_stretch.py --data ../shared/data/dance_with_melody \
@@ -26,7 +26,7 @@ from momu.following.pairs import LEAD_S, dataset_node
 from momu.following.signals import time_stretch_audio
 from momu.following.tempo import beat_tempo, fold_ratio
 
-START_S, SECONDS = LEAD_S, 15.0
+START_S = LEAD_S
 CONDITIONS = {
     "tracker": RhythmConfig(),
     "periodogram": RhythmConfig(tempo="periodogram"),
@@ -38,12 +38,12 @@ log = logging.getLogger("song_condition_stretch")
 
 def main() -> None:
     args = study_args(__doc__, "song_condition_stretch")
-    ds = build_component(dataset_node(args.data, "all", "dwm21", SECONDS, 8), "datasets")
+    ds = build_component(dataset_node(args.data, "all", "dwm21", args.seconds, 8), "datasets")
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
         sr = clip.sample_rate
-        y = clip.audio[int(START_S * sr) : int((START_S + SECONDS) * sr)]
+        y = clip.audio[int(START_S * sr) : int((START_S + args.seconds) * sr)]
         versions = {1.0: y, **{f: time_stretch_audio(y, f) for f in FACTORS}}
         row: dict = {"id": clip.id, "split": clip.meta.get("split", "all")}
         for name, cfg in CONDITIONS.items():
@@ -67,7 +67,7 @@ def main() -> None:
     }
     write_study(
         args.out,
-        {"excerpt_s": [START_S, SECONDS], "factors": list(FACTORS), "summary": summary, "songs": rows},
+        {"excerpt_s": [START_S, args.seconds], "factors": list(FACTORS), "summary": summary, "songs": rows},
         indent=1,
     )
     log.info("stretches followed within 5 %%: %s; wrote %s", summary, args.out)

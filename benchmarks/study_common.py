@@ -1,8 +1,9 @@
 """The command line and output of the Dance with Melody studies under ``benchmarks/`` (one JSON each).
 
 ``study_args(__doc__, "name")`` sets up logging and parses ``--data`` (default: the shared Dance with
-Melody copy) and ``--out`` (default ``benchmarks/results/<name>.json``); :func:`write_study` writes the
-result, making its folder.
+Melody copy), ``--seconds`` (the excerpt's length, default the music-following benchmark's 15 s) and
+``--out`` (default ``benchmarks/results/<name>.json``); :func:`write_study` writes the result, making
+its folder.
 """
 
 from __future__ import annotations
@@ -16,13 +17,24 @@ from typing import Any
 __all__ = ["study_args", "write_study"]
 
 DEFAULT_DATA = "../shared/data/dance_with_melody"
+DEFAULT_SECONDS = 15.0
+"""The music-following benchmark's excerpt on Dance with Melody (``reproductions/music_following_dwm``)."""
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
 
 
 def study_args(doc: str, name: str, data_help: str | None = None) -> argparse.Namespace:
-    """Logging at INFO, then the parsed ``--data`` / ``--out`` of study ``name`` (``doc``: its docstring)."""
+    """Logging at INFO, then the parsed ``--data`` / ``--seconds`` / ``--out`` of study ``name`` (``doc``:
+    its docstring)."""
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     p = argparse.ArgumentParser(description=doc.splitlines()[0])
     p.add_argument("--data", default=DEFAULT_DATA, help=data_help)
+    p.add_argument("--seconds", type=_positive, default=DEFAULT_SECONDS, help="excerpt length (s)")
     p.add_argument("--out", type=Path, default=Path(f"benchmarks/results/{name}.json"))
     return p.parse_args()
 
