@@ -254,3 +254,26 @@ def test_npz_round_trip_without_pickles(tmp_path: Path) -> None:
     assert back.provenance == {"seed": 7, "model": "x"}
     with pytest.raises(ValueError, match=r"\(T, 21, D\)"):
         write_motion_npz(tmp_path / "bad.npz", motion[:, :20], 25.0, "dwm21")
+
+
+@given(seed=st.integers(0, 2**16), order=st.sampled_from(["zxy", "xyz", "yzx", "zyx"]))
+def test_bvh_euler_channels_give_back_every_rotation_gimbal_lock_included(seed: int, order: str) -> None:
+    """The channels written for a rotation give that rotation back under the BVH reading (pymotion's
+    ``from_euler``, intrinsic), also where the middle angle is ±90° and the Euler angles are not
+    unique; no warning reaches the user."""
+    import warnings
+
+    import pymotion.rotations.quat_np as quat
+
+    from momu.export.bvh import _intrinsic_euler_degrees
+
+    rng = np.random.default_rng(seed)
+    angles = rng.uniform(-180.0, 180.0, (6, 3))
+    angles[:3, 1] = [90.0, -90.0, 90.0]  # gimbal lock
+    matrices = Rotation.from_euler(order.upper(), angles, degrees=True).as_matrix()[None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        euler = _intrinsic_euler_degrees(matrices, order)
+    orders = np.broadcast_to(np.array(list(order)), euler.shape)
+    back = quat.to_matrix(quat.from_euler(np.radians(euler), orders))
+    assert np.abs(back - matrices).max() < 1e-9
