@@ -90,8 +90,11 @@ def test_generate_lets_waiting_openmp_threads_sleep(monkeypatch: pytest.MonkeyPa
 
 def test_help_and_input_errors_do_not_load_torch(tmp_path: Path) -> None:
     """`momu --help`, a generate command with a missing song and `momu eval` with a missing folder answer
-    without importing torch, diffusers or the metrics (`momu --help` took 7-10 s on 2 cores when they did)."""
-    heavy = ("torch", "diffusers", "librosa", "momu.metrics")
+    without importing torch, diffusers, the metrics or scipy's subpackages (`momu --help` took 7-10 s on
+    2 cores when they did, and 2 s while the datasets imported scipy.signal, .spatial, .ndimage and
+    .special)."""
+    scipy_parts = ("scipy.signal", "scipy.spatial", "scipy.ndimage", "scipy.special")
+    heavy = ("torch", "diffusers", "librosa", "momu.metrics", *scipy_parts)
     code = (
         "import sys\n"
         "from momu.cli import build_parser, main\n"

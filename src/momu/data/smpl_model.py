@@ -35,7 +35,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from momu.data.files import DataFileError, MissingDataFileError, absent_reason, read_pickle_dict
 from momu.data.safe_pickle import PickledObject
@@ -226,6 +225,8 @@ def forward_kinematics(
     if aa.ndim != 3 or aa.shape[1:] != (joints, 3):
         raise ValueError(f"poses must be (T, {3 * joints}) or (T, {joints}, 3) axis-angle, got {aa.shape}")
     frames = aa.shape[0]
+    from scipy.spatial.transform import Rotation  # here: scipy.spatial takes 0.6 s to import
+
     local = Rotation.from_rotvec(aa.reshape(-1, 3)).as_matrix().reshape(frames, joints, 3, 3)
     rot = np.empty_like(local)
     pos = np.empty((frames, joints, 3))

@@ -24,8 +24,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
-from scipy.special import betainc
 
 from momu.data.synth.styles import CONTROLS, INCREMENTS, NEUTRAL, Style
 from momu.features.skeletons import Skeleton, forward_kinematics
@@ -208,6 +206,8 @@ def ease_keys(
     p = np.clip(np.asarray(phase, dtype=np.float64), kp[0], kp[-1])
     k = np.clip(np.searchsorted(kp, p, side="right") - 1, 0, n - 2)
     u = np.clip((p - kp[k]) / (kp[k + 1] - kp[k]), 0.0, 1.0)
+    from scipy.special import betainc  # here: scipy.special takes 0.3 s to import
+
     w = betainc(attack + 1.0, release + 1.0, u)[:, None]
     return keys[k] + (keys[k + 1] - keys[k]) * w
 
@@ -220,6 +220,8 @@ def smooth_noise(
         return np.zeros(shape)
     raw = rng.standard_normal(shape)
     if sigma_frames > 0:
+        from scipy.ndimage import gaussian_filter1d  # here: scipy.ndimage takes 0.3 s to import
+
         raw = gaussian_filter1d(raw, sigma_frames, axis=0, mode="reflect")
         raw /= max(float(raw.std()), 1e-12)
     return raw * std
