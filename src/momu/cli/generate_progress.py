@@ -54,12 +54,12 @@ def progress(total: int, desc: str, unit: str, quiet: bool = False) -> Iterator[
         reached = quarter
         while reached < len(_QUARTERS) and done * 100 >= _QUARTERS[reached] * total:
             reached += 1
-        if reached > quarter:  # one line for the highest quarter passed
+        if reached > quarter:  # one line when a quarter is passed, with the share actually done
             quarter = reached
             log.info(
                 "%s: %d%% (%d of %d %s, %.1f s)",
                 desc,
-                _QUARTERS[quarter - 1],
+                100 * min(done, total) // total,
                 min(done, total),
                 total,
                 units,
