@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from momu.cli.generate_io import GenerateInputError, default_model_dir, model_record
+from momu.errors import UsageParser, fail
 
 __all__ = ["main", "build_parser"]
 
@@ -32,7 +33,7 @@ class BenchmarkInputError(ValueError):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = UsageParser(
         prog="music_following", description="Does a generator follow its input? (docs/following.md)"
     )
     p.add_argument(
@@ -166,8 +167,7 @@ def main(argv: list[str] | None = None) -> int:
                 raise BenchmarkInputError(f"--generated {str(exc).splitlines()[0]}") from None
             generated[directions[0]][f"generated:{args.generated.name}"] = outputs
     except (BenchmarkInputError, GenerateInputError) as exc:
-        sys.stderr.write(f"music_following: error: {exc}\n")
-        return 2
+        return fail("music_following", exc)  # one line, exit 2; under accelerate launch also its error file
     return _run(args, argv, pairs, generators, generated, node)
 
 

@@ -27,6 +27,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from momu.errors import UsageParser, fail
 from momu.following.checks import TESTS
 from momu.following.realism import REALISM_KEYS
 from momu.following.report import DIRECTION_TITLES, format_cell
@@ -330,7 +331,7 @@ def _parse_labels(items: Sequence[str]) -> dict[str, str]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = UsageParser(
         prog=PROG, description="Collect music-following results.json files into one table (docs/following.md)"
     )
     p.add_argument("results", type=Path, nargs="+", help="results.json files of recipes/music_following.py")
@@ -365,8 +366,7 @@ def main(argv: list[str] | None = None) -> int:
         sources = [(str(p), load_results(p)) for p in args.results]
         table = collect(sources, labels, recipes)
     except TableInputError as exc:
-        sys.stderr.write(f"{PROG}: error: {exc}\n")
-        return 2
+        return fail(PROG, exc)
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / "results.json", table)
     atomic_write_text(args.out / "results.md", markdown(table))
