@@ -1,9 +1,9 @@
 """A usage error's one-line reason is the last thing printed, under ``python`` and ``accelerate launch``.
 
 Real processes (tests/helpers/launch.py), for a table recipe and the music-following benchmark.
-``python recipes/momu_table7.py`` exits 2; the launcher
-turns any failing child into exit 1 plus its own report (``CalledProcessError`` traceback, or torch
-elastic's failure summary with ``--multi_gpu``), after which momu repeats the reason (docs/errors.md).
+``python recipes/<recipe>.py`` exits 2; the launcher turns any failing child into exit 1 plus its own
+report (``CalledProcessError`` traceback, or torch elastic's failure summary with ``--multi_gpu``),
+after which momu repeats the reason (docs/errors.md).
 """
 
 from __future__ import annotations
