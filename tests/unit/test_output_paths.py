@@ -93,3 +93,17 @@ def test_temporaries_of_killed_runs_are_removed_by_the_next(tmp_path: Path) -> N
     old = os.stat(alive).st_mtime - 7200
     os.utime(alive, (old, old))  # a pid may be reused: an hour-old temporary is stale anyway
     assert remove_stale_partials(tmp_path) == 1 and not alive.exists()
+
+
+def test_a_trailing_separator_makes_out_a_folder_whatever_dots_its_name_has(tmp_path: Path) -> None:
+    from momu.cli.generate_errors import GenerateInputError
+    from momu.cli.generate_io import resolve_outputs
+
+    allowed = ("mp4", "bvh", "npz")
+    for name in ("take_1.5", "song.wav"):
+        outputs = resolve_outputs(f"{tmp_path / name}{os.sep}", None, allowed, "dance")
+        assert outputs == {f: tmp_path / name / f"dance.{f}" for f in allowed}
+    assert resolve_outputs(str(tmp_path / "d.bvh"), None, allowed, "dance") == {"bvh": tmp_path / "d.bvh"}
+    with pytest.raises(GenerateInputError, match=r"unknown output type '\.5'"):
+        resolve_outputs(str(tmp_path / "take_1.5"), None, allowed, "dance")
+    assert not any(tmp_path.iterdir())

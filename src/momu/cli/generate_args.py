@@ -51,9 +51,9 @@ def add_common(
     """``--out --format --model --seed [--guidance] --seconds --video-fps --quiet``."""
     p.add_argument(
         "--out",
-        type=Path,
         required=True,
-        help=f"output folder, or one file ending in {', '.join('.' + f for f in allowed)}",
+        help=f"output folder (a trailing / always means one), or one file ending in "
+        f"{', '.join('.' + f for f in allowed)}",
     )
     p.add_argument("--format", help=f"comma-separated subset of {','.join(allowed)} (default: all)")
     p.add_argument("--model", type=Path, metavar="DIR", help=model_help)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -47,18 +48,21 @@ log = logging.getLogger(__name__)
 
 
 def resolve_outputs(
-    out: Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str
+    out: str | Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str
 ) -> dict[str, Path]:
     """Output file per format, each checked writable now (before any work).
 
     ``out`` with a suffix in ``allowed`` is that one file (``--format`` must agree); any other suffix is
-    an error; otherwise ``out`` is a folder (created when the outputs are written) holding
+    an error, unless the text ends in a path separator (``take_1.5/``, ``song.wav/``: a folder, whatever
+    its name's dots); otherwise ``out`` is a folder (created when the outputs are written) holding
     ``<stem>.<format>`` for each of ``formats`` (default: all ``allowed``). A folder path that is an
     existing file is an error; so is a folder that cannot be written or a name too long for the file
     system (:func:`momu.cli.output_paths.check_writable_output`).
     """
+    folder = isinstance(out, str) and out.endswith(("/", os.sep))
+    out = Path(out)
     try:
-        outputs = _output_files(out, formats, allowed, stem)
+        outputs = _output_files(out, formats, allowed, stem, folder)
         for path in outputs.values():
             check_writable_output(path, "--out", is_file=True)
     except OutputPathError as exc:
@@ -69,14 +73,14 @@ def resolve_outputs(
 
 
 def _output_files(
-    out: Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str
+    out: Path, formats: list[str] | None, allowed: tuple[str, ...], stem: str, folder: bool
 ) -> dict[str, Path]:
     suffix = out.suffix.lower().lstrip(".")
     if formats is not None:
         bad = [f for f in formats if f not in allowed]
         if bad or not formats:
             raise GenerateInputError(f"--format: unknown {bad or formats}; choose from {', '.join(allowed)}")
-    if suffix and not out.is_dir():
+    if suffix and not folder and not out.is_dir():
         if suffix not in allowed:
             raise GenerateInputError(
                 f"--out {out}: unknown output type '.{suffix}' (use a folder, or a file ending in "
