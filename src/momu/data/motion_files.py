@@ -4,7 +4,9 @@
 for :func:`momu.features.convert.convert_motion`:
 
 * ``.bvh``: any file whose joint names include every joint of a registered 3D skeleton (files written by
-  :func:`momu.export.write_bvh` do); world positions by forward kinematics. BVH has no unit field: a
+  :func:`momu.export.write_bvh` do), or a rig exported by an animation tool whose joints name a body
+  (Mixamo, CMU, SMPL, Unreal: :mod:`momu.features.rig_names`), posed on :data:`RIG_SKELETON`;
+  world positions by forward kinematics. BVH has no unit field: a
   figure taller than 10 units is read as centimetres (× 0.01), else as metres.
 * ``.npz``: a momu motion file (:mod:`momu.export.npz`: ``joints``, ``fps``, ``skeleton``), or any archive
   with one of the arrays ``joints`` / ``motion`` / ``positions`` / ``keypoints``.
@@ -51,6 +53,8 @@ MOTION_SUFFIXES = (".bvh", ".npy", ".npz", ".json")
 
 _ARRAY_KEYS = ("joints", "motion", "positions", "keypoints")
 _CM_HEIGHT = 10.0
+RIG_SKELETON = "smpl24"
+"""The skeleton a BVH rig that names no registered skeleton's joints is posed on (its landmarks)."""
 MAX_MOTION_BYTES = 256 << 20
 """Largest motion array read (256 MiB: 10 minutes at 240 fps of 60 joints in float64 is 207 MB)."""
 _SMALL_BYTES = 1 << 16
@@ -208,18 +212,40 @@ def _read_bvh(path: Path, skeleton: str | None, fps: float | None, max_seconds: 
     names = set(bvh.names)
     choices = [skeleton] if skeleton else [n for n in SKELETON_NAMES if get_skeleton(n).dims == 3]
     fits = [n for n in choices if set(get_skeleton(n).joint_names) <= names]
-    if not fits:
-        raise ValueError(
-            f"{path}: its joints {sorted(names)[:8]}... do not include all joints of any registered 3D "
-            f"skeleton ({', '.join(choices)}); rename them or export with momu"
-        )
-    name = max(fits, key=lambda n: get_skeleton(n).num_joints)  # dwm23 over dwm21 when both fit
-    idx = [bvh.names.index(j) for j in get_skeleton(name).joint_names]
-    pos = bvh.positions[:, idx]
+    if fits:
+        name = max(fits, key=lambda n: get_skeleton(n).num_joints)  # dwm23 over dwm21 when both fit
+        pos = bvh.positions[:, [bvh.names.index(j) for j in get_skeleton(name).joint_names]]
+    else:
+        name, pos = _rig_positions(bvh.names, bvh.positions, skeleton, path, choices)
     height = float(np.ptp(pos[0, :, 1]))
     if height > _CM_HEIGHT:
         pos = pos * 0.01
     return MotionInput(_check_array(pos, path), rate, name, None, str(path))
+
+
+def _rig_positions(
+    names: tuple[str, ...], positions: np.ndarray, skeleton: str | None, path: Path, choices: list[str]
+) -> tuple[str, np.ndarray]:
+    """A third-party rig's joints (:mod:`momu.features.rig_names`: Mixamo, CMU, SMPL, Unreal
+    names) posed on ``skeleton`` (default :data:`RIG_SKELETON`) by its landmarks."""
+    from momu.features.convert import landmark_matrix
+    from momu.features.rig_names import rig_landmarks
+
+    target = skeleton or RIG_SKELETON
+    have = rig_landmarks(names)
+    try:
+        weights = landmark_matrix(have, len(names), target)
+    except (KeyError, ValueError) as exc:
+        found = f"read {sorted(have)}" if have else "none read"
+        raise ValueError(
+            f"{path}: its joints {sorted(names)[:8]}... do not include all joints of any registered 3D "
+            f"skeleton ({', '.join(choices)}), nor a {target} body by Mixamo / CMU / SMPL / Unreal "
+            f"joint names ({exc}; {found}); rename them or export with momu"
+        ) from None
+    log.info(
+        "%s: joints read by their rig names as %s (%d of %d joints used)", path, target, len(have), len(names)
+    )
+    return target, np.einsum("ij,tjd->tid", weights, positions)
 
 
 def _scalar(path: Path, key: str) -> np.ndarray:

@@ -27,6 +27,7 @@ __all__ = [
     "JOINT_LANDMARKS",
     "DERIVED",
     "conversion_matrix",
+    "landmark_matrix",
     "can_convert",
     "convert_motion",
     "floor_offset",
@@ -126,14 +127,32 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
         KeyError: unknown skeleton.
         ValueError: a target joint no landmark rule reaches from ``source`` (the message names them).
     """
-    src, tgt = get_skeleton(source), get_skeleton(target)
+    src = get_skeleton(source)
+    get_skeleton(target)
     if source not in JOINT_LANDMARKS or target not in JOINT_LANDMARKS:
         missing = source if source not in JOINT_LANDMARKS else target
         raise ValueError(
             f"skeleton {missing!r} has no landmark table; convertible: {sorted(JOINT_LANDMARKS)}"
         )
     have = {JOINT_LANDMARKS[source][n]: j for j, n in enumerate(src.joint_names)}
-    w = np.zeros((tgt.num_joints, src.num_joints))
+    try:
+        return landmark_matrix(have, src.num_joints, target)
+    except ValueError as exc:
+        raise ValueError(f"cannot convert skeleton {source!r} to {target!r}: {exc}") from None
+
+
+def landmark_matrix(have: Mapping[str, int], num_source: int, target: str) -> np.ndarray:
+    """``(J_target, num_source)`` weights posing ``target``'s joints from source joints of known
+    landmarks (``have``: landmark → source joint index; other source joints get no weight).
+
+    Raises:
+        KeyError: unknown ``target`` skeleton.
+        ValueError: ``target`` has no landmark table, or joints no rule reaches (``no source for [...]``).
+    """
+    tgt = get_skeleton(target)
+    if target not in JOINT_LANDMARKS:
+        raise ValueError(f"skeleton {target!r} has no landmark table; convertible: {sorted(JOINT_LANDMARKS)}")
+    w = np.zeros((tgt.num_joints, num_source))
     unreachable = []
     for i, name in enumerate(tgt.joint_names):
         weights = _resolve(JOINT_LANDMARKS[target][name], have)
@@ -143,7 +162,7 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
         for j, v in weights.items():
             w[i, j] = v
     if unreachable:
-        raise ValueError(f"cannot convert skeleton {source!r} to {target!r}: no source for {unreachable}")
+        raise ValueError(f"no source for {unreachable}")
     return w
 
 
