@@ -47,6 +47,7 @@ class RhythmEncoderConfig:
         tempo: ``"tracker"`` (librosa estimates it) or ``"periodogram"`` (the envelope's dominant
             period, which follows a time-stretch; :class:`momu.features.rhythm.RhythmConfig`).
         periodogram_bpm: ``[low, high]`` tempi (BPM) the periodogram searches (``tempo: periodogram``).
+        subdivide: beats per tracked beat (:class:`momu.features.rhythm.RhythmConfig`; 1 as trained).
     """
 
     start_bpm: float = 120.0
@@ -55,11 +56,18 @@ class RhythmEncoderConfig:
     max_bpm: float = 160.0
     tempo: str = "tracker"
     periodogram_bpm: list[float] = field(default_factory=lambda: [20.0, 200.0])
+    subdivide: int = 1
 
     def rhythm(self) -> RhythmConfig:
         low, high = (float(b) for b in self.periodogram_bpm)
         return RhythmConfig(
-            self.start_bpm, self.tightness, self.min_bpm, self.max_bpm, self.tempo, (low, high)
+            self.start_bpm,
+            self.tightness,
+            self.min_bpm,
+            self.max_bpm,
+            self.tempo,
+            (low, high),
+            int(self.subdivide),
         )
 
 
@@ -86,6 +94,8 @@ def _check(name: str, cfg: RhythmEncoderConfig) -> None:
     bounds = list(cfg.periodogram_bpm)
     if len(bounds) != 2 or not 0 < float(bounds[0]) < float(bounds[1]):
         raise ValueError(f"{name}: periodogram_bpm must be [low, high] with 0 < low < high, got {bounds}")
+    if isinstance(cfg.subdivide, bool) or not isinstance(cfg.subdivide, int) or cfg.subdivide < 1:
+        raise ValueError(f"{name}: subdivide must be a whole number >= 1, got {cfg.subdivide!r}")
     if cfg.tempo not in TEMPO_ESTIMATES:
         raise ValueError(f"{name}: tempo must be one of {', '.join(TEMPO_ESTIMATES)}, got {cfg.tempo!r}")
 

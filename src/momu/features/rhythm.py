@@ -67,6 +67,10 @@ class RhythmConfig:
             cases with 20-200 BPM, 73 with 30-300 (a kinematic-onset envelope has harmonics at
             150-300 BPM that compete with its fundamental) and 49 with the tracker
             (``benchmarks/dance_tempo_vs_song.py``).
+        subdivide: beats per tracked beat: every tracked interval is split into this many equal beats
+            before the grid is folded (1: the tracked beats as they are). A dancer who moves once per
+            bar gives the bar; ``3`` makes a waltz's three beats of it (``momu generate music
+            --beats-per-movement``).
     """
 
     start_bpm: float = 120.0
@@ -75,6 +79,7 @@ class RhythmConfig:
     max_bpm: float = 160.0
     tempo: str = "tracker"
     periodogram_bpm: tuple[float, float] = (20.0, 200.0)
+    subdivide: int = 1
 
 
 def track_beats(envelope: np.ndarray, rate: float, cfg: RhythmConfig | None = None) -> np.ndarray:
@@ -99,8 +104,13 @@ def track_beats(envelope: np.ndarray, rate: float, cfg: RhythmConfig | None = No
 
 
 def _beat_grid(beats: np.ndarray, seconds: float, cfg: RhythmConfig) -> np.ndarray:
-    """``beats`` extended before the first and after the last at the median period, covering
-    ``[0, seconds]``; the period is folded into ``[min_bpm, max_bpm]`` by halving/doubling the grid."""
+    """``beats`` split ``cfg.subdivide`` times and extended before the first and after the last at the
+    median period, covering ``[0, seconds]``; the period is folded into ``[min_bpm, max_bpm]`` by
+    halving/doubling the grid."""
+    if cfg.subdivide > 1:
+        steps = np.arange(cfg.subdivide) / cfg.subdivide
+        inner = (beats[:-1, None] + np.diff(beats)[:, None] * steps).ravel()
+        beats = np.concatenate([inner, beats[-1:]])
     period = float(np.median(np.diff(beats)))
     while 60.0 / period > cfg.max_bpm and beats.size >= 4:  # keep every other beat
         beats, period = beats[::2], period * 2
