@@ -74,7 +74,7 @@ def _followed(ratio: float, factor: float) -> bool:
     return abs(fold_ratio(ratio) / factor - 1.0) <= 0.05
 
 
-def _style_multiple(dance_id: str) -> int:
+def style_multiple(dance_id: str) -> int:
     """3 for a waltz (Dance with Melody's ``DANCE_W_*``: the dancer's period is the bar), else 2."""
     return 3 if "_W_" in dance_id else 2
 
@@ -93,7 +93,7 @@ def tempo_match_ceiling(rows: list[dict], key: str) -> dict[str, dict[str, list[
         for m in (*MULTIPLES, "style"):
             per = []
             for r in group:
-                music = r[key] * (_style_multiple(r["id"]) if m == "style" else m)
+                music = r[key] * (style_multiple(r["id"]) if m == "style" else m)
                 others = [tempo_matches(music, o["song_beat_bpm"]) for o in group if o is not r]
                 per.append(float(tempo_matches(music, r["song_beat_bpm"])) - float(np.mean(others)))
             est = song_seed_bootstrap(np.array(per))

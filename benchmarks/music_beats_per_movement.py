@@ -22,13 +22,12 @@ import argparse
 import logging
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from dance_tempo_vs_song import style_multiple  # benchmarks/dance_tempo_vs_song.py
 from study_common import DEFAULT_DATA, DEFAULT_SECONDS  # benchmarks/study_common.py
 
-from momu.encoders.rhythm import MotionRhythm
 from momu.engine.provenance import git_commit, package_versions
 from momu.following import run_benchmark, write_results
 from momu.following.adapters import shipped
@@ -37,13 +36,8 @@ from momu.following.pairs import Pair, dataset_node, load_pairs
 log = logging.getLogger("music_beats_per_movement")
 
 
-def style_beats(dance_id: str) -> int:
-    """Beats per movement of a Dance with Melody dance by its style: 3 for a waltz (``DANCE_W_*``), else 2."""
-    return 3 if "_W_" in dance_id else 2
-
-
 class BeatsPerMovement:
-    """The shipped music generator with θ_a's condition split into each dance's :func:`style_beats`.
+    """The shipped music generator with θ_a's condition split into each dance's :func:`style_multiple`.
 
     The benchmark hands a generator the motion only; the dance is recognised by its first pose, which
     every input derived from an excerpt keeps (stretched, delayed, the excerpt itself)."""
@@ -51,8 +45,7 @@ class BeatsPerMovement:
     def __init__(self, pairs: list[Pair]) -> None:
         self.inner = shipped("music")
         self.model = self.inner.model  # type: ignore[attr-defined]
-        self.base = self.model.conditions.from_motion.cfg
-        self.beats = {self._key(p.excerpt_motion()): style_beats(p.id) for p in pairs}
+        self.beats = {self._key(p.excerpt_motion()): style_multiple(p.id) for p in pairs}
 
     @staticmethod
     def _key(motion: np.ndarray) -> bytes:
@@ -62,7 +55,7 @@ class BeatsPerMovement:
         beats = self.beats.get(self._key(motion))
         if beats is None:
             raise KeyError("an input that is not one of the split's excerpts (did the benchmark change?)")
-        self.model.conditions.from_motion = MotionRhythm(replace(self.base, subdivide=beats))
+        self.model.use_beats_per_movement(beats)
         return self.inner.generate(motion, fps, seed)  # type: ignore[no-any-return]
 
 

@@ -209,3 +209,42 @@ def test_unknown_tempo_estimate_is_named() -> None:
         ValueError, match="^motion_rhythm: tempo must be one of tracker, periodogram, got 'fft'"
     ):
         build_component({"name": "motion_rhythm", "tempo": "fft"}, "encoders")
+
+
+@pytest.mark.parametrize("beats", [2, 3])
+def test_subdivide_puts_that_many_beats_in_each_movement(beats: int) -> None:
+    """A body that moves once per 2.07 s (29 movements a minute, a waltz dancer's bar) read with
+    ``subdivide: beats``: the tempo is ``beats ×`` the movement's and every movement still falls on a
+    beat (phase 0), the beats between dividing it evenly."""
+    period, seconds = 60.0 / 29.0, 20.0
+    node = {"name": "motion_rhythm", "tempo": "periodogram", "min_bpm": 20.0, "max_bpm": 200.0}
+    motion = stepping(period, seconds=seconds)
+    frames = int(seconds * FRAME_RATE)
+    plain = build_component(node, "encoders").features(motion, 30.0, frames, FRAME_RATE)
+    split = build_component({**node, "subdivide": beats}, "encoders").features(
+        motion, 30.0, frames, FRAME_RATE
+    )
+    assert tempo_of(plain) == pytest.approx(29.0, rel=0.05)
+    assert tempo_of(split) == pytest.approx(beats * 29.0, rel=0.05)
+    np.testing.assert_allclose(split[:, 3], plain[:, 3])  # the envelope is the dance's, untouched
+    cycles_plain, cycles_split = beat_cycles(plain), beat_cycles(split)
+    middle = slice(frames // 4, 3 * frames // 4)
+    np.testing.assert_allclose(
+        cycles_split[middle] - cycles_split[middle][0],
+        beats * (cycles_plain[middle] - cycles_plain[middle][0]),
+        atol=0.02,
+    )
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (0, "^motion_rhythm: subdivide must be a whole number >= 1, got 0"),
+        (-1, "^motion_rhythm: subdivide must be a whole number >= 1, got -1"),
+        (1.5, "^motion_rhythm.subdivide: invalid value"),  # the config's type check comes first
+        (True, "^motion_rhythm.subdivide: invalid value"),
+    ],
+)
+def test_bad_subdivide_is_named(value: object, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        build_component({"name": "motion_rhythm", "subdivide": value}, "encoders")

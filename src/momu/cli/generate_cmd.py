@@ -64,6 +64,8 @@ from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, EXIT_USAGE
 log = logging.getLogger(__name__)
 
 JOINT_FORMATS = ("wav", "npz", "bvh", "mp4")
+MAX_BEATS_PER_MOVEMENT = 8
+"""Largest ``--beats-per-movement`` (a movement spanning two bars of 4/4)."""
 
 
 def add_parser(sub: Any) -> None:
@@ -82,6 +84,14 @@ def add_parser(sub: Any) -> None:
     m = what.add_parser("music", help="music for a dance: wav (+ mp4 of the dance with it)")
     add_motion(m, "the dance")
     add_common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
+    m.add_argument(
+        "--beats-per-movement",
+        type=int,
+        default=1,
+        metavar="N",
+        help="music beats per movement of the dance (default 1: the music's beat is the dance's period; "
+        "3 for a waltz danced once per bar, 2 for a Latin dance that moves once per half bar)",
+    )
     m.set_defaults(func=run, direction="music")
     j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
     add_common(j, JOINT_FORMATS, "length in seconds (default 10)")
@@ -187,6 +197,10 @@ def _music(args: argparse.Namespace) -> list[Path]:
     from momu.features.skeletons import get_skeleton
 
     outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
+    if not 1 <= args.beats_per_movement <= MAX_BEATS_PER_MOVEMENT:
+        raise GenerateInputError(
+            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT}, got {args.beats_per_movement}"
+        )
     given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
     motion, trajectory = given.motion, given.trajectory
     motion_warnings(given, args.motion)
@@ -201,6 +215,11 @@ def _music(args: argparse.Namespace) -> list[Path]:
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
 
     model = _load(record)
+    if args.beats_per_movement != 1:
+        try:
+            model.use_beats_per_movement(args.beats_per_movement)
+        except ValueError as exc:
+            raise GenerateInputError(f"--beats-per-movement: --model {record.folder}: {exc}") from None
     plan = plan_for_seconds(model, motion.shape[0] / given.fps, "music")
     with progress(len(plan.starts), "generating the music", "window", args.quiet) as update:
         (audio,) = motion_to_music_long(

@@ -15,7 +15,7 @@ With neither set (the default) every method here returns what the paper's model 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -111,6 +111,21 @@ class Conditions:
         if self.representation == "positions":
             return np.asarray(clip.motion)
         return self.motion_in(world_positions(clip), clip.fps)
+
+    def with_beats_per_movement(self, beats: int) -> Conditions:
+        """These conditions with θ_a's rhythm split into ``beats`` beats per beat it tracks on a dance
+        (its ``subdivide``: a dancer who moves once per bar of a waltz, ``beats=3``, gives music at the
+        waltz's beat, not at the bar).
+
+        Raises:
+            ValueError: ``beats`` < 1, or θ_a is not conditioned on a rhythm part with ``subdivide``.
+        """
+        cfg = getattr(self.from_motion, "cfg", None)
+        if cfg is None or not hasattr(cfg, "subdivide"):
+            raise ValueError("this model's music is not conditioned on the dance's beats (music_condition)")
+        if beats < 1:
+            raise ValueError(f"beats per movement must be >= 1, got {beats}")
+        return replace(self, from_motion=type(self.from_motion)(replace(cfg, subdivide=int(beats))))
 
     # ------------------------------------------------------------------ condition features
     def cond_width(self, direction: str, latent_channels: int) -> int:

@@ -161,6 +161,11 @@ class MoMuModel:
             self._conditions = Conditions.of(self.cfg, self.skeleton)
         return self._conditions
 
+    def use_beats_per_movement(self, beats: int) -> None:
+        """Generate music with ``beats`` beats per beat θ_a tracks on a dance from now on
+        (:meth:`.Conditions.with_beats_per_movement`; 1 is how the model was trained)."""
+        self._conditions = self.conditions.with_beats_per_movement(beats)
+
     # ---------------------------------------------------------------- encoders
     def _standardise(self, z: torch.Tensor, norm: Normalizer) -> torch.Tensor:
         return norm.transform(z.float())
