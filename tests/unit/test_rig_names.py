@@ -113,3 +113,13 @@ def test_a_rig_without_a_body_fails_in_one_line_naming_what_it_lacks(
     with pytest.raises(ValueError, match=r"nohead.bvh: .*no source for \['head'\].*rename them") as info:
         read_motion_file(_renamed(path, tmp_path / "nohead.bvh", names))
     assert "\n" not in str(info.value)
+
+
+def test_a_z_up_rig_is_turned_to_y_up(dance: tuple[Path, np.ndarray, float], tmp_path: Path) -> None:
+    """Blender and Unreal export Z up: the same dance written standing along Z reads as the Y-up one."""
+    path, own, fps = dance
+    z_up = np.stack([own[..., 0], -own[..., 2], own[..., 1]], axis=-1)  # Y up -> Z up (a rotation)
+    written = write_bvh(tmp_path / "z.bvh", z_up, fps, "smpl24", scale=100.0)
+    got = read_motion_file(_renamed(written, tmp_path / "unreal_z.bvh", RIGS["unreal"]))
+    reference = read_motion_file(_renamed(path, tmp_path / "unreal_y.bvh", RIGS["unreal"]))
+    np.testing.assert_allclose(got.motion, reference.motion, atol=2e-3)

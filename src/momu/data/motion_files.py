@@ -227,7 +227,8 @@ def _rig_positions(
     names: tuple[str, ...], positions: np.ndarray, skeleton: str | None, path: Path, choices: list[str]
 ) -> tuple[str, np.ndarray]:
     """A third-party rig's joints (:mod:`momu.features.rig_names`: Mixamo, CMU, SMPL, Unreal
-    names) posed on ``skeleton`` (default :data:`RIG_SKELETON`) by its landmarks."""
+    names) posed on ``skeleton`` (default :data:`RIG_SKELETON`) by its landmarks; a figure standing
+    along Z (head above the ankles on Z, as Blender and Unreal export) is turned to momu's Y up."""
     from momu.features.convert import landmark_matrix
     from momu.features.rig_names import rig_landmarks
 
@@ -245,7 +246,16 @@ def _rig_positions(
     log.info(
         "%s: joints read by their rig names as %s (%d of %d joints used)", path, target, len(have), len(names)
     )
-    return target, np.einsum("ij,tjd->tid", weights, positions)
+    pos = np.einsum("ij,tjd->tid", weights, positions)
+    if not {"head", "l_ankle", "r_ankle"} <= have.keys():  # every 3D target needs them; be safe
+        return target, pos
+    up = positions[:, have["head"]] - positions[:, [have["l_ankle"], have["r_ankle"]]].mean(axis=1)
+    up = up.mean(axis=0)
+    if np.argmax(np.abs(up)) == 2:  # Z up (Blender's, Unreal's axes): turn it to Y up
+        sign = np.sign(up[2])
+        log.info("%s: the figure stands along Z; turned to Y up", path)
+        pos = np.stack([pos[..., 0], sign * pos[..., 2], -sign * pos[..., 1]], axis=-1)
+    return target, pos
 
 
 def _scalar(path: Path, key: str) -> np.ndarray:
