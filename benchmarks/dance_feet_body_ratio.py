@@ -7,8 +7,8 @@
 Given the style's multiple of the dancer's movement period (3 for a waltz's bar, 2 otherwise), the
 shipped music passes tempo match on the validation songs (``benchmarks/results/music_beats_per_movement``);
 a threshold on the movement rate itself picks the multiple on unstretched dances but not on stretched
-ones. This reads a time-scale-free cue instead: the dominant tempo of the feet's kinematic onsets
-(ankles, heels, toes; :func:`momu.features.rhythm.motion_envelope`, periodogram 20-400 BPM) over that of
+ones. This reads a time-scale-free cue instead (:func:`momu.features.ballroom_metre.feet_body_ratio`):
+the dominant tempo of the feet's kinematic onsets (ankles, heels, toes; periodogram 20-400 BPM) over
 the whole body's (θ_a's reading: 20-200 BPM), on each dance's excerpt (2 s in, ``--seconds``) played
 ×0.8, ×0.9, ×1, ×1.1 and ×1.25 (:func:`momu.following.signals.time_scale_motion`). Both periods scale
 with a stretch, so their ratio should not move. Written per dance: its style's multiple and the five
@@ -29,38 +29,27 @@ from dance_tempo_vs_song import style_multiple  # benchmarks/dance_tempo_vs_song
 from study_common import study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
-from momu.features.rhythm import ENVELOPE_RATE, motion_envelope
-from momu.features.skeletons import get_skeleton
+from momu.features.ballroom_metre import feet_body_ratio
 from momu.following.pairs import DWM_SPLIT, LEAD_S
 from momu.following.signals import time_scale_motion
-from momu.following.tempo import periodogram_tempo
 
 STRETCHES = (0.8, 0.9, 1.0, 1.1, 1.25)
-FEET_BPM = (20.0, 400.0)
-"""The feet's search range: a waltz's feet move ~5 times per bar (~150 BPM), ×1.25 reaches ~190."""
 log = logging.getLogger("dance_feet_body_ratio")
-
-
-def feet_body_ratio(motion: np.ndarray, fps: float, feet: list[int]) -> float:
-    """Dominant tempo of the feet's kinematic onsets over the whole body's."""
-    body = periodogram_tempo(motion_envelope(motion, fps), ENVELOPE_RATE)
-    steps = periodogram_tempo(motion_envelope(motion[:, feet], fps), ENVELOPE_RATE, FEET_BPM)
-    return float(steps / body)
 
 
 def main() -> None:
     args = study_args(__doc__, "dance_feet_body_ratio")
     node = {"name": "dance_with_melody", "root": args.data, "sample_rate": 16000, "split": "all", **DWM_SPLIT}
     ds = build_component(node, "datasets")
-    names = get_skeleton("dwm21").joint_names
-    feet = [i for i, n in enumerate(names) if n.endswith(("ankle", "heel", "toe"))]
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
         f0, f1 = int(LEAD_S * clip.fps), int((LEAD_S + args.seconds) * clip.fps)
         root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
         motion = (clip.motion + root)[f0:f1]
-        ratios = [feet_body_ratio(time_scale_motion(motion, clip.fps, f), clip.fps, feet) for f in STRETCHES]
+        ratios = [
+            feet_body_ratio(time_scale_motion(motion, clip.fps, f), clip.fps, "dwm21") for f in STRETCHES
+        ]
         rows.append(
             {
                 "id": clip.id,

@@ -121,8 +121,6 @@ def provenance(args: argparse.Namespace, record: ModelRecord, source: Path | Non
         "guidance": args.guidance,
         "seconds": args.seconds,
     }
-    if getattr(args, "beats_per_movement", 1) != 1:
-        prov["beats_per_movement"] = args.beats_per_movement
     if source is not None and source.is_file():
         prov["input"] = {"path": str(source), "sha256": file_sha256(source)}
     return prov

@@ -86,11 +86,11 @@ def add_parser(sub: Any) -> None:
     add_common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
     m.add_argument(
         "--beats-per-movement",
-        type=int,
-        default=1,
-        metavar="N",
+        default="1",
+        metavar="N|ballroom",
         help="music beats per movement of the dance (default 1: the music's beat is the dance's period; "
-        "3 for a waltz danced once per bar, 2 for a Latin dance that moves once per half bar)",
+        "3 for a waltz danced once per bar, 2 for a Latin dance that moves once per half bar; "
+        "ballroom: 3 or 2 read from how often the feet move per body movement)",
     )
     m.set_defaults(func=run, direction="music")
     j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
@@ -192,15 +192,27 @@ def _dance(args: argparse.Namespace) -> list[Path]:
     )
 
 
+def _beats_per_movement(text: str) -> int | str:
+    """``--beats-per-movement``: a whole number 1 to :data:`MAX_BEATS_PER_MOVEMENT`, or ``ballroom``."""
+    if text.strip().lower() == "ballroom":
+        return "ballroom"
+    try:
+        beats = int(text)
+    except ValueError:
+        beats = 0
+    if not 1 <= beats <= MAX_BEATS_PER_MOVEMENT:
+        raise GenerateInputError(
+            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT} or ballroom, got {text!r}"
+        )
+    return beats
+
+
 def _music(args: argparse.Namespace) -> list[Path]:
     from momu.features.convert import stand_on_floor
     from momu.features.skeletons import get_skeleton
 
     outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
-    if not 1 <= args.beats_per_movement <= MAX_BEATS_PER_MOVEMENT:
-        raise GenerateInputError(
-            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT}, got {args.beats_per_movement}"
-        )
+    beats = _beats_per_movement(args.beats_per_movement)
     given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
     motion, trajectory = given.motion, given.trajectory
     motion_warnings(given, args.motion)
@@ -214,10 +226,16 @@ def _music(args: argparse.Namespace) -> list[Path]:
     log.info("music for %s: %.1f s at %g fps", args.motion, motion.shape[0] / given.fps, given.fps)
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
 
+    if beats == "ballroom":
+        from momu.features.ballroom_metre import ballroom_beats_per_movement, feet_body_ratio
+
+        beats = ballroom_beats_per_movement(model_input, given.fps, record.skeleton)
+        ratio = feet_body_ratio(model_input, given.fps, record.skeleton)
+        log.info("ballroom: the feet move %.2f times per body movement: %d beats per movement", ratio, beats)
     model = _load(record)
-    if args.beats_per_movement != 1:
+    if beats != 1:
         try:
-            model.use_beats_per_movement(args.beats_per_movement)
+            model.use_beats_per_movement(beats)
         except ValueError as exc:
             raise GenerateInputError(f"--beats-per-movement: --model {record.folder}: {exc}") from None
     plan = plan_for_seconds(model, motion.shape[0] / given.fps, "music")

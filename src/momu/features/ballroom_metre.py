@@ -1,0 +1,58 @@
+"""How many beats a ballroom dancer's movement spans, read from the motion (issue 32).
+
+A music model conditioned on a dance's rhythm (``motion_rhythm``) reads the beats at the dominant
+period of the dancer's movements. Ballroom dancers move once per bar in a waltz (3 beats) and once per
+half bar in the Latin dances and the tango (2 beats), so that period is not the song's beat;
+``momu generate music --beats-per-movement N`` splits it into N beats. This module reads N from the
+motion alone, with a cue that does not change when the dance is played faster or slower: the dominant
+tempo of the **feet's** kinematic onsets over the **whole body's**. A waltz's feet move several times
+per rise and fall of the body (2.8-5.6 times on the Dance with Melody waltzes); a rumba's, cha-cha's or
+tango's move with it (0.7-1.5) (``benchmarks/dance_feet_body_ratio.py``). :data:`WALTZ_RATIO` is the
+threshold between the *train* split's two groups.
+
+It is a ballroom rule, fixed from 10 dances (the cue was noticed looking at all 23): a dance of any
+other kind, whose feet move with its body, is read as 2 beats per movement. Use it for ballroom dances.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from momu.features.rhythm import ENVELOPE_RATE, motion_envelope
+from momu.features.skeletons import get_skeleton
+
+__all__ = ["WALTZ_RATIO", "feet_body_ratio", "ballroom_beats_per_movement"]
+
+WALTZ_RATIO = 2.17
+"""Feet-over-body tempo ratio above which a dance is read as a waltz: the geometric mean of the train
+split's largest other-style ratio (1.548) and smallest waltz ratio (3.048)
+(``benchmarks/results/dance_feet_body_ratio.json``)."""
+BODY_BPM = (20.0, 200.0)
+"""Where the body's period is searched: ``motion_rhythm``'s ``periodogram_bpm``, as the shipped model's."""
+FEET_BPM = (20.0, 400.0)
+"""Where the feet's is: a waltz's feet move about five times per bar (~150 BPM; ~190 played ×1.25)."""
+
+
+def _feet(skeleton: str) -> list[int]:
+    names = get_skeleton(skeleton).joint_names
+    feet = [i for i, n in enumerate(names) if n.endswith(("ankle", "heel", "toe", "foot"))]
+    if not feet:
+        raise ValueError(f"skeleton {skeleton!r} has no ankle, heel, toe or foot joints")
+    return feet
+
+
+def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
+    """Dominant tempo of the feet's kinematic onsets over the whole body's (NaN when either has none)."""
+    from momu.following.tempo import periodogram_tempo  # momu.following imports momu.features
+
+    x = np.asarray(motion, dtype=np.float64)
+    body = periodogram_tempo(motion_envelope(x, fps), ENVELOPE_RATE, BODY_BPM)
+    steps = periodogram_tempo(motion_envelope(x[:, _feet(skeleton)], fps), ENVELOPE_RATE, FEET_BPM)
+    return float(steps / body)
+
+
+def ballroom_beats_per_movement(motion: np.ndarray, fps: float, skeleton: str) -> int:
+    """3 (a waltz: one movement per bar) when the feet move more than :data:`WALTZ_RATIO` times per
+    body movement, else 2 (one per half bar), for ``(T, J, 3)`` world positions of ``skeleton``."""
+    ratio = feet_body_ratio(motion, fps, skeleton)
+    return 3 if np.isfinite(ratio) and ratio > WALTZ_RATIO else 2
