@@ -55,12 +55,45 @@ def test_bad_beats_per_movement_fail_in_one_line_writing_nothing(
     path, _, _ = dance
     out = tmp_path / "o"
     base = ["generate", "music", "--motion", str(path), "--out", str(out)]
-    assert main([*base, "--beats-per-movement", "0"]) == 2
-    err = capsys.readouterr().err
-    assert "--beats-per-movement: must be 1 to 8, got 0" in err and err.count("\n") == 1
+    for bad in ("0", "9", "waltz"):
+        assert main([*base, "--beats-per-movement", bad]) == 2
+        err = capsys.readouterr().err
+        assert (
+            f"--beats-per-movement: must be 1 to 8 or ballroom, got '{bad}'" in err and err.count("\n") == 1
+        )
     # a model whose music is conditioned on the dance's latent alone has no beats to split
     tiny = tiny_3d_model(tmp_path / "tiny")
     assert main([*base, "--beats-per-movement", "3", "--model", str(tiny), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "is not conditioned on the dance's beats" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_ballroom_reads_the_beats_per_movement_from_the_dance(
+    dance: tuple[Path, np.ndarray, float], tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    try:
+        default_model_dir("music")
+    except GenerateInputError:
+        pytest.skip("no shipped model in this installation")
+    path, _, _ = dance
+    out = tmp_path / "music.wav"
+    with caplog.at_level("INFO"):
+        assert (
+            main(
+                [
+                    "generate",
+                    "music",
+                    "--motion",
+                    str(path),
+                    "--out",
+                    str(out),
+                    "--beats-per-movement",
+                    "ballroom",
+                ]
+            )
+            == 0
+        )
+    assert out.is_file()
+    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("ballroom:")]
+    assert len(said) == 1 and said[0].endswith(("2 beats per movement", "3 beats per movement")), said

@@ -33,21 +33,15 @@ FEET_BPM = (20.0, 400.0)
 """Where the feet's is: a waltz's feet move about five times per bar (~150 BPM; ~190 played ×1.25)."""
 
 
-def _feet(skeleton: str) -> list[int]:
-    names = get_skeleton(skeleton).joint_names
-    feet = [i for i, n in enumerate(names) if n.endswith(("ankle", "heel", "toe", "foot"))]
-    if not feet:
-        raise ValueError(f"skeleton {skeleton!r} has no ankle, heel, toe or foot joints")
-    return feet
-
-
 def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
     """Dominant tempo of the feet's kinematic onsets over the whole body's (NaN when either has none)."""
     from momu.following.tempo import periodogram_tempo  # momu.following imports momu.features
 
     x = np.asarray(motion, dtype=np.float64)
     body = periodogram_tempo(motion_envelope(x, fps), ENVELOPE_RATE, BODY_BPM)
-    steps = periodogram_tempo(motion_envelope(x[:, _feet(skeleton)], fps), ENVELOPE_RATE, FEET_BPM)
+    names = get_skeleton(skeleton).joint_names
+    feet = [i for i, n in enumerate(names) if n.endswith(("ankle", "heel", "toe", "foot"))]
+    steps = periodogram_tempo(motion_envelope(x[:, feet], fps), ENVELOPE_RATE, FEET_BPM)
     return float(steps / body)
 
 
