@@ -2,7 +2,8 @@
 (issue 32, the dance → music direction's tempo match)
 
     python benchmarks/music_beats_per_movement.py [--data ../shared/data/dance_with_melody] [--split val]
-        [--seconds 15] [--rule style|ballroom] [--out benchmarks/results/music_beats_per_movement/val]
+        [--seconds 15] [--rule style|ballroom] [--model DIR]
+        [--out benchmarks/results/music_beats_per_movement/val]
 
 θ_a (the shipped music model) reads a dance's rhythm as ``motion_rhythm`` does: beats at the dominant
 period of its kinematic onsets. The Dance with Melody dancers move once per bar in a waltz (3 beats) and
@@ -33,7 +34,7 @@ from study_common import DEFAULT_DATA, DEFAULT_SECONDS  # benchmarks/study_commo
 from momu.engine.provenance import git_commit, package_versions
 from momu.features.ballroom_metre import ballroom_beats_per_movement
 from momu.following import run_benchmark, write_results
-from momu.following.adapters import shipped
+from momu.following.adapters import from_model_dir, shipped
 from momu.following.pairs import Pair, dataset_node, load_pairs
 
 log = logging.getLogger("music_beats_per_movement")
@@ -49,8 +50,8 @@ class BeatsPerMovement:
     generate music --beats-per-movement ballroom`` does): a dance → music generator of the motion alone.
     """
 
-    def __init__(self, pairs: list[Pair], rule: str = "style") -> None:
-        self.inner = shipped("music")
+    def __init__(self, pairs: list[Pair], rule: str = "style", model: Path | None = None) -> None:
+        self.inner = shipped("music") if model is None else from_model_dir(model, "music")
         self.model = self.inner.model  # type: ignore[attr-defined]
         self.rule = rule
         self.skeleton = pairs[0].skeleton
@@ -85,6 +86,7 @@ def main() -> None:
     p.add_argument("--split", default="val", choices=("train", "val", "test"))
     p.add_argument("--seconds", type=float, default=DEFAULT_SECONDS)
     p.add_argument("--rule", default="style", choices=tuple(ROWS), help="how N is chosen (class docstring)")
+    p.add_argument("--model", type=Path, help="a MoMu model folder (default: the shipped model)")
     p.add_argument("--out", type=Path, default=Path("benchmarks/results/music_beats_per_movement/val"))
     args = p.parse_args()
     start, commit = time.time(), git_commit()
@@ -92,7 +94,7 @@ def main() -> None:
     pairs = load_pairs(node, args.seconds, None)
     result = run_benchmark(
         pairs,
-        {ROWS[args.rule]: BeatsPerMovement(pairs, args.rule)},
+        {ROWS[args.rule]: BeatsPerMovement(pairs, args.rule, args.model)},
         direction="music",
         controls=False,
     )
@@ -100,7 +102,7 @@ def main() -> None:
         "benchmark": "music_following",
         "data": f"{Path(args.data).name} ({args.split} split)",
         "settings": {
-            "generator": SETTINGS[args.rule],
+            "generator": SETTINGS[args.rule] + ("" if args.model is None else f" ({args.model})"),
             "split": args.split,
             "songs": len(pairs),
             "seconds": args.seconds,
