@@ -85,13 +85,16 @@ def main() -> None:
     p.add_argument("--data", default=DEFAULT_DATA)
     p.add_argument("--split", default="val", choices=("train", "val", "test"))
     p.add_argument("--seconds", type=float, default=DEFAULT_SECONDS)
+    p.add_argument(
+        "--songs", type=int, default=100, help="at most this many songs (synth: 7 as its reproduction)"
+    )
     p.add_argument("--rule", default="style", choices=tuple(ROWS), help="how N is chosen (class docstring)")
     p.add_argument("--model", type=Path, help="a MoMu model folder (default: the shipped model)")
     p.add_argument("--out", type=Path, default=Path("benchmarks/results/music_beats_per_movement/val"))
     args = p.parse_args()
     start, commit = time.time(), git_commit()
-    node = dataset_node(args.data, args.split, "dwm21", args.seconds, 100)
-    pairs = load_pairs(node, args.seconds, None)
+    node = dataset_node(args.data, args.split, "dwm21", args.seconds, args.songs)
+    pairs = load_pairs(node, args.seconds, args.songs)
     result = run_benchmark(
         pairs,
         {ROWS[args.rule]: BeatsPerMovement(pairs, args.rule, args.model)},
@@ -100,7 +103,7 @@ def main() -> None:
     )
     results = {
         "benchmark": "music_following",
-        "data": f"{Path(args.data).name} ({args.split} split)",
+        "data": f"{'synth_dance' if args.data == 'synth' else Path(args.data).name} ({args.split} split)",
         "settings": {
             "generator": SETTINGS[args.rule] + ("" if args.model is None else f" ({args.model})"),
             "split": args.split,
