@@ -97,3 +97,21 @@ def test_ballroom_reads_the_beats_per_movement_from_the_dance(
     assert out.is_file()
     said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("ballroom:")]
     assert len(said) == 1 and said[0].endswith(("2 beats per movement", "3 beats per movement")), said
+
+
+def test_the_benchmark_adapter_reads_ballroom_beats_per_dance(dance: tuple[Path, np.ndarray, float]) -> None:
+    """``recipes/music_following.py --beats-per-movement ballroom``: each dance the generator is given is
+    read anew (the benchmark hands it dances of different styles)."""
+    try:
+        folder = default_model_dir("music")
+    except GenerateInputError:
+        pytest.skip("no shipped model in this installation")
+    from momu.features.ballroom_metre import ballroom_beats_per_movement
+    from momu.following import from_model_dir
+
+    _, motion, fps = dance
+    generator = from_model_dir(folder, "music", beats_per_movement="ballroom")
+    audio, _ = generator.generate(motion[: int(4 * fps)], fps, seed=0)
+    assert audio.ndim == 1
+    expected = ballroom_beats_per_movement(motion[: int(4 * fps)], fps, "dwm21")
+    assert generator.model.conditions.from_motion.cfg.subdivide == expected  # type: ignore[attr-defined]

@@ -29,6 +29,14 @@ def test_momu_folder_generates_both_directions(tmp_path: Path) -> None:
     assert audio.ndim == 1 and sr == 16000 and len(audio) / sr == pytest.approx(3.0, abs=0.2)
 
 
+def test_beats_per_movement_needs_music_conditioned_on_beats(tmp_path: Path) -> None:
+    """The tiny model's music is conditioned on the dance's latent alone: nothing to split."""
+    folder = tiny_3d_model(tmp_path)
+    with pytest.raises(GenerateInputError, match="is not conditioned on the dance's beats"):
+        from_model_dir(folder, "music", beats_per_movement="ballroom")
+    assert isinstance(from_model_dir(folder, "dance", beats_per_movement="ballroom"), DanceGenerator)
+
+
 @pytest.mark.parametrize("make", [tiny_mofusion_model, tiny_harmogan_model])
 def test_dance_only_methods_generate_dance_and_refuse_music(tmp_path: Path, make) -> None:  # type: ignore[no-untyped-def]
     folder = make(tmp_path / "m")

@@ -129,6 +129,8 @@ def test_the_recipe_end_to_end_with_ground_truth_only(tmp_path: Path) -> None:
         (["--data", "/nonexistent/folder"], "--data"),
         (["--generator", "/nonexistent/model"], "--generator"),
         (["--seeds", "0", "0"], "--seeds"),
+        (["--beats-per-movement", "0"], "--beats-per-movement: must be 1 to 8 or ballroom"),
+        (["--beats-per-movement", "ballroom"], "--beats-per-movement: only for dance → music with a model"),
     ],
 )
 def test_bad_options_one_line_exit_2(tmp_path: Path, argv: list[str], needle: str) -> None:

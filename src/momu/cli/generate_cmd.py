@@ -64,8 +64,6 @@ from momu.errors import EXIT_PREEMPTED, EXIT_PROBLEMS, EXIT_USAGE
 log = logging.getLogger(__name__)
 
 JOINT_FORMATS = ("wav", "npz", "bvh", "mp4")
-MAX_BEATS_PER_MOVEMENT = 8
-"""Largest ``--beats-per-movement`` (a movement spanning two bars of 4/4)."""
 
 
 def add_parser(sub: Any) -> None:
@@ -192,27 +190,17 @@ def _dance(args: argparse.Namespace) -> list[Path]:
     )
 
 
-def _beats_per_movement(text: str) -> int | str:
-    """``--beats-per-movement``: a whole number 1 to :data:`MAX_BEATS_PER_MOVEMENT`, or ``ballroom``."""
-    if text.strip().lower() == "ballroom":
-        return "ballroom"
-    try:
-        beats = int(text)
-    except ValueError:
-        beats = 0
-    if not 1 <= beats <= MAX_BEATS_PER_MOVEMENT:
-        raise GenerateInputError(
-            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT} or ballroom, got {text!r}"
-        )
-    return beats
-
-
 def _music(args: argparse.Namespace) -> list[Path]:
     from momu.features.convert import stand_on_floor
     from momu.features.skeletons import get_skeleton
 
     outputs = resolve_outputs(args.out, formats(args.format), MUSIC_FORMATS, "music")
-    beats = _beats_per_movement(args.beats_per_movement)
+    from momu.features.ballroom_metre import parse_beats_per_movement
+
+    try:
+        beats = parse_beats_per_movement(args.beats_per_movement)
+    except ValueError as exc:
+        raise GenerateInputError(str(exc)) from None
     given = read_motion(args.motion, args.skeleton, args.fps, args.seconds)
     motion, trajectory = given.motion, given.trajectory
     motion_warnings(given, args.motion)
@@ -227,9 +215,9 @@ def _music(args: argparse.Namespace) -> list[Path]:
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
 
     if beats == "ballroom":
-        from momu.features.ballroom_metre import ballroom_beats_per_movement, feet_body_ratio
+        from momu.features.ballroom_metre import beats_for, feet_body_ratio
 
-        beats = ballroom_beats_per_movement(model_input, given.fps, record.skeleton)
+        beats = beats_for(beats, model_input, given.fps, record.skeleton)
         ratio = feet_body_ratio(model_input, given.fps, record.skeleton)
         log.info("ballroom: the feet move %.2f times per body movement: %d beats per movement", ratio, beats)
     model = _load(record)

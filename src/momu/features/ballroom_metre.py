@@ -18,10 +18,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from momu.features.rhythm import ENVELOPE_RATE, motion_envelope
 from momu.features.skeletons import get_skeleton
 
-__all__ = ["WALTZ_RATIO", "feet_body_ratio", "ballroom_beats_per_movement"]
+__all__ = [
+    "WALTZ_RATIO",
+    "MAX_BEATS_PER_MOVEMENT",
+    "feet_body_ratio",
+    "ballroom_beats_per_movement",
+    "parse_beats_per_movement",
+    "beats_for",
+]
 
 WALTZ_RATIO = 2.17
 """Feet-over-body tempo ratio above which a dance is read as a waltz: the geometric mean of the train
@@ -29,12 +35,15 @@ split's largest other-style ratio (1.548) and smallest waltz ratio (3.048)
 (``benchmarks/results/dance_feet_body_ratio.json``)."""
 BODY_BPM = (20.0, 200.0)
 """Where the body's period is searched: ``motion_rhythm``'s ``periodogram_bpm``, as the shipped model's."""
+MAX_BEATS_PER_MOVEMENT = 8
+"""Largest N of ``--beats-per-movement`` (a movement spanning two bars of 4/4)."""
 FEET_BPM = (20.0, 400.0)
 """Where the feet's is: a waltz's feet move about five times per bar (~150 BPM; ~190 played ×1.25)."""
 
 
 def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
     """Dominant tempo of the feet's kinematic onsets over the whole body's (NaN when either has none)."""
+    from momu.features.rhythm import ENVELOPE_RATE, motion_envelope  # librosa: not for option parsing
     from momu.following.tempo import periodogram_tempo  # momu.following imports momu.features
 
     x = np.asarray(motion, dtype=np.float64)
@@ -50,3 +59,27 @@ def ballroom_beats_per_movement(motion: np.ndarray, fps: float, skeleton: str) -
     body movement, else 2 (one per half bar), for ``(T, J, 3)`` world positions of ``skeleton``."""
     ratio = feet_body_ratio(motion, fps, skeleton)
     return 3 if np.isfinite(ratio) and ratio > WALTZ_RATIO else 2
+
+
+def parse_beats_per_movement(text: str) -> int | str:
+    """``--beats-per-movement``: a whole number 1 to :data:`MAX_BEATS_PER_MOVEMENT`, or ``"ballroom"``.
+
+    Raises:
+        ValueError: anything else (the message names the option and the value).
+    """
+    if text.strip().lower() == "ballroom":
+        return "ballroom"
+    try:
+        beats = int(text)
+    except ValueError:
+        beats = 0
+    if not 1 <= beats <= MAX_BEATS_PER_MOVEMENT:
+        raise ValueError(
+            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT} or ballroom, got {text!r}"
+        )
+    return beats
+
+
+def beats_for(beats: int | str, motion: np.ndarray, fps: float, skeleton: str) -> int:
+    """``beats`` as a number: ``"ballroom"`` read from ``motion`` (:func:`ballroom_beats_per_movement`)."""
+    return ballroom_beats_per_movement(motion, fps, skeleton) if beats == "ballroom" else int(beats)

@@ -54,9 +54,10 @@ class _MoMuMusic:
     """MoMu dance → music; the motion is mapped to the model's skeleton (by its joint count) and stood on
     the floor like ``momu generate music`` does."""
 
-    def __init__(self, model: Any, skeleton: str) -> None:
+    def __init__(self, model: Any, skeleton: str, beats_per_movement: int | str = 1) -> None:
         self.model = model
         self.skeleton = skeleton
+        self.beats_per_movement = beats_per_movement
 
     def generate(self, motion: np.ndarray, fps: float, seed: int) -> tuple[np.ndarray, int]:
         from momu.cli.eval_inputs import _SKELETONS
@@ -73,6 +74,10 @@ class _MoMuMusic:
             x = convert_motion(x, source, self.skeleton)
         if target.dims == 3:
             x = stand_on_floor(x, target.root)
+        if self.beats_per_movement != 1:
+            from momu.features.ballroom_metre import beats_for
+
+            self.model.use_beats_per_movement(beats_for(self.beats_per_movement, x, fps, self.skeleton))
         (audio,) = motion_to_music_long(self.model, [x.astype(np.float32)], fps, [seed])
         return np.asarray(audio), int(self.model.rates.sample_rate)
 
@@ -98,9 +103,13 @@ def model_name(folder: Path) -> str:
     return f"{model_record(Path(folder)).method}:{Path(folder).name}"
 
 
-def from_model_dir(folder: str | Path, direction: str = "dance") -> DanceGenerator | MusicGenerator:
+def from_model_dir(
+    folder: str | Path, direction: str = "dance", beats_per_movement: int | str = 1
+) -> DanceGenerator | MusicGenerator:
     """The generator of ``direction`` (``"dance"``: music → dance, ``"music"``: dance → music) of a saved
     model folder (``momu.json``, ``mofusion.json`` or ``harmogan.json``), loaded once.
+    ``beats_per_movement`` (MoMu's music only): N or ``"ballroom"``, as ``momu generate music
+    --beats-per-movement`` (:mod:`momu.features.ballroom_metre`).
 
     Raises:
         GenerateInputError: not a model folder, a model that cannot generate ``direction`` (MoFusion and
@@ -116,7 +125,14 @@ def from_model_dir(folder: str | Path, direction: str = "dance") -> DanceGenerat
             model = MoMuModel.load(record.folder)
         except (OSError, ValueError, KeyError) as exc:
             raise GenerateInputError(f"--model {record.folder}: cannot load: {exc}") from None
-        return _MoMuDance(model) if direction == "dance" else _MoMuMusic(model, model.skeleton)
+        if direction == "music" and beats_per_movement != 1:
+            try:
+                model.conditions.with_beats_per_movement(2)  # its music has beats to split (a check)
+            except ValueError as exc:
+                raise GenerateInputError(f"--beats-per-movement: --model {record.folder}: {exc}") from None
+        if direction == "dance":
+            return _MoMuDance(model)
+        return _MoMuMusic(model, model.skeleton, beats_per_movement)
     from momu.cli.generate_methods import describe, load_method_model
 
     if direction != "dance" or record.task != "music":

@@ -73,6 +73,13 @@ def build_parser() -> argparse.ArgumentParser:
         "a row scored on the tests that need no generator",
     )
     p.add_argument(
+        "--beats-per-movement",
+        default="1",
+        metavar="N|ballroom",
+        help="dance → music with a MoMu model: music beats per movement of the dance, as momu generate "
+        "music --beats-per-movement (default 1)",
+    )
+    p.add_argument(
         "--no-controls", action="store_true", help="skip the control inputs (silence, noise, clicks ...)"
     )
     p.add_argument("--out", type=Path, default=Path("outputs"))
@@ -108,6 +115,16 @@ def _check(args: argparse.Namespace) -> tuple[list[str], str | None, str]:
     except ValueError as exc:
         raise BenchmarkInputError(str(exc)) from None
     directions = ["dance", "music"] if args.direction == "both" else [args.direction]
+    from momu.features.ballroom_metre import parse_beats_per_movement
+
+    try:
+        args.beats_per_movement = parse_beats_per_movement(args.beats_per_movement)
+    except ValueError as exc:
+        raise BenchmarkInputError(str(exc)) from None
+    if args.beats_per_movement != 1 and ("music" not in directions or args.generator == "ground_truth_only"):
+        raise BenchmarkInputError(
+            "--beats-per-movement: only for dance → music with a model (--direction music)"
+        )
     skeleton = "dwm21"
     folder: str | None = None
     if args.generator != "ground_truth_only":
@@ -153,7 +170,9 @@ def main(argv: list[str] | None = None) -> int:
                 f"shipped ({Path(folder).name})" if args.generator == "shipped" else model_name(Path(folder))
             )
             for d in directions:
-                generators[d][name] = from_model_dir(folder, d)
+                beats = args.beats_per_movement if d == "music" else 1
+                label = name if beats == 1 else f"{name}, beats per movement {beats}"
+                generators[d][label] = from_model_dir(folder, d, beats)
         generated: dict[str, dict[str, Any]] = {d: {} for d in directions}
         if args.generated is not None:
             from momu.cli.eval_inputs import EvalInputError
@@ -206,6 +225,7 @@ def _run(
             "songs": len(pairs),
             "seconds": args.seconds,
             "seeds": " ".join(map(str, args.seeds)),
+            **({} if args.beats_per_movement == 1 else {"beats_per_movement": args.beats_per_movement}),
         },
         "dataset": node,
         "directions": directions,
