@@ -26,11 +26,11 @@ import logging
 
 import numpy as np
 from dance_tempo_vs_song import style_multiple  # benchmarks/dance_tempo_vs_song.py
-from study_common import study_args, write_study  # benchmarks/study_common.py
+from study_common import excerpt, study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.ballroom_metre import feet_body_ratio
-from momu.following.pairs import DWM_SPLIT, LEAD_S
+from momu.following.pairs import DWM_SPLIT
 from momu.following.signals import time_scale_motion
 
 STRETCHES = (0.8, 0.9, 1.0, 1.1, 1.25)
@@ -44,9 +44,7 @@ def main() -> None:
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
-        f0, f1 = int(LEAD_S * clip.fps), int((LEAD_S + args.seconds) * clip.fps)
-        root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
-        motion = (clip.motion + root)[f0:f1]
+        motion, _ = excerpt(clip, args.seconds)
         ratios = [
             feet_body_ratio(time_scale_motion(motion, clip.fps, f), clip.fps, "dwm21") for f in STRETCHES
         ]

@@ -37,7 +37,7 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from study_common import study_args, write_study  # benchmarks/study_common.py
+from study_common import excerpt, study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.rhythm import ENVELOPE_RATE, RhythmConfig, motion_envelope, track_beats
@@ -112,10 +112,7 @@ def main() -> None:
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
-        f0, f1 = int(START_S * clip.fps), int((START_S + args.seconds) * clip.fps)
-        root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
-        motion = (clip.motion + root)[f0:f1]
-        audio = clip.audio[int(START_S * clip.sample_rate) : int((START_S + args.seconds) * clip.sample_rate)]
+        motion, audio = excerpt(clip, args.seconds, START_S)
         song_analysis = analyse_audio(audio, clip.sample_rate)
         song = song_analysis.tempo
         tracked = _tracked(motion, clip.fps)

@@ -32,7 +32,7 @@ import sys
 
 import librosa
 import numpy as np
-from study_common import study_args, write_study  # benchmarks/study_common.py
+from study_common import excerpt, study_args, write_study  # benchmarks/study_common.py
 
 from momu.config import build_component
 from momu.features.skeletons import get_skeleton
@@ -92,11 +92,8 @@ def main() -> None:
     rows = []
     for i in range(len(ds)):
         clip = ds[i]
-        f0, f1 = int(LEAD_S * clip.fps), int((LEAD_S + args.seconds) * clip.fps)
-        root = 0.0 if clip.trajectory is None else clip.trajectory[:, None]
-        motion = (clip.motion + root)[f0:f1]
-        sr = clip.sample_rate
-        song = analyse_audio(clip.audio[int(LEAD_S * sr) : int((LEAD_S + args.seconds) * sr)], sr).beat_tempo
+        motion, audio = excerpt(clip, args.seconds)
+        song = analyse_audio(audio, clip.sample_rate).beat_tempo
         tempi = estimates(motion, clip.fps, estimate_tempo_from_keypoints)
         rows.append(
             {

@@ -215,10 +215,10 @@ def _music(args: argparse.Namespace) -> list[Path]:
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
 
     if beats == "ballroom":
-        from momu.features.ballroom_metre import beats_for, feet_body_ratio
+        from momu.features.ballroom_metre import beats_for_ratio, feet_body_ratio
 
-        beats = beats_for(beats, model_input, given.fps, record.skeleton)
         ratio = feet_body_ratio(model_input, given.fps, record.skeleton)
+        beats = beats_for_ratio(ratio)
         log.info("ballroom: the feet move %.2f times per body movement: %d beats per movement", ratio, beats)
     model = _load(record)
     if beats != 1:

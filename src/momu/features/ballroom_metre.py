@@ -25,6 +25,7 @@ __all__ = [
     "MAX_BEATS_PER_MOVEMENT",
     "feet_body_ratio",
     "ballroom_beats_per_movement",
+    "beats_for_ratio",
     "parse_beats_per_movement",
     "beats_for",
 ]
@@ -54,11 +55,15 @@ def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
     return float(steps / body)
 
 
-def ballroom_beats_per_movement(motion: np.ndarray, fps: float, skeleton: str) -> int:
+def beats_for_ratio(ratio: float) -> int:
     """3 (a waltz: one movement per bar) when the feet move more than :data:`WALTZ_RATIO` times per
-    body movement, else 2 (one per half bar), for ``(T, J, 3)`` world positions of ``skeleton``."""
-    ratio = feet_body_ratio(motion, fps, skeleton)
+    body movement, else 2 (one per half bar)."""
     return 3 if np.isfinite(ratio) and ratio > WALTZ_RATIO else 2
+
+
+def ballroom_beats_per_movement(motion: np.ndarray, fps: float, skeleton: str) -> int:
+    """:func:`beats_for_ratio` of ``(T, J, 3)`` world positions of ``skeleton``."""
+    return beats_for_ratio(feet_body_ratio(motion, fps, skeleton))
 
 
 def parse_beats_per_movement(text: str) -> int | str:
