@@ -32,14 +32,18 @@ def _positive(text: str) -> float:
     return value
 
 
-def study_args(doc: str, name: str, data_help: str | None = None) -> argparse.Namespace:
+def study_args(
+    doc: str, name: str, data_help: str | None = None, extra: dict[str, int] | None = None
+) -> argparse.Namespace:
     """Logging at INFO, then the parsed ``--data`` / ``--seconds`` / ``--out`` of study ``name`` (``doc``:
-    its docstring)."""
+    its docstring), and any ``extra`` whole-number options (``{"--option": default}``)."""
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     p = argparse.ArgumentParser(description=doc.splitlines()[0])
     p.add_argument("--data", default=DEFAULT_DATA, help=data_help)
     p.add_argument("--seconds", type=_positive, default=DEFAULT_SECONDS, help="excerpt length (s)")
     p.add_argument("--out", type=Path, default=Path(f"benchmarks/results/{name}.json"))
+    for option, default in (extra or {}).items():
+        p.add_argument(option, type=int, default=default)
     return p.parse_args()
 
 

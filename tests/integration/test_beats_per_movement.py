@@ -59,7 +59,8 @@ def test_bad_beats_per_movement_fail_in_one_line_writing_nothing(
         assert main([*base, "--beats-per-movement", bad]) == 2
         err = capsys.readouterr().err
         assert (
-            f"--beats-per-movement: must be 1 to 8 or ballroom, got '{bad}'" in err and err.count("\n") == 1
+            f"--beats-per-movement: must be 1 to 8, ballroom or auto, got '{bad}'" in err
+            and err.count("\n") == 1
         )
     # a model whose music is conditioned on the dance's latent alone has no beats to split
     tiny = tiny_3d_model(tmp_path / "tiny")
@@ -97,6 +98,49 @@ def test_ballroom_reads_the_beats_per_movement_from_the_dance(
     assert out.is_file()
     said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("ballroom:")]
     assert len(said) == 1 and said[0].endswith(("2 beats per movement", "3 beats per movement")), said
+
+
+def test_auto_is_the_default_and_says_what_it_read(
+    dance: tuple[Path, np.ndarray, float], tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """``momu generate music`` reads the beats per movement (``auto``) unless told; a model whose music
+    does not read the dance's beats is left as it is, silently."""
+    path, motion, fps = dance
+    tiny = tiny_3d_model(tmp_path / "tiny")
+    with caplog.at_level("INFO"):
+        assert (
+            main(
+                [
+                    "generate",
+                    "music",
+                    "--motion",
+                    str(path),
+                    "--out",
+                    str(tmp_path / "a.wav"),
+                    "--model",
+                    str(tiny),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
+    assert (tmp_path / "a.wav").is_file()
+    assert not [r for r in caplog.records if r.getMessage().startswith("auto:")]
+    try:
+        default_model_dir("music")
+    except GenerateInputError:
+        pytest.skip("no shipped model in this installation")
+    caplog.clear()
+    with caplog.at_level("INFO"):
+        assert (
+            main(["generate", "music", "--motion", str(path), "--out", str(tmp_path / "b.wav"), "--quiet"])
+            == 0
+        )
+    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("auto:")]
+    from momu.features.ballroom_metre import beats_for
+
+    n = beats_for("auto", motion, fps, "dwm21")
+    assert len(said) == 1 and said[0].endswith(f"{n} beat{'s' if n > 1 else ''} per movement"), said
 
 
 def test_the_benchmark_adapter_reads_ballroom_beats_per_dance(dance: tuple[Path, np.ndarray, float]) -> None:

@@ -7,7 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from momu.features.ballroom_metre import WALTZ_RATIO, ballroom_beats_per_movement, feet_body_ratio
+from momu.features.ballroom_metre import (
+    BAR_BPM,
+    WALTZ_RATIO,
+    ballroom_beats_per_movement,
+    beats_for,
+    feet_body_ratio,
+    parse_beats_per_movement,
+    read_beats,
+)
 from momu.features.skeletons import get_skeleton
 from momu.following.signals import time_scale_motion
 
@@ -50,11 +58,51 @@ def test_feet_that_step_within_a_movement_read_as_a_waltz(feet_bpm: float | None
         assert ballroom_beats_per_movement(faster, FPS, "dwm21") == beats
 
 
+@pytest.mark.parametrize(
+    ("body_bpm", "feet_bpm", "auto", "ballroom"),
+    [
+        (29.0, 145.0, 3, 3),  # a waltz danced once per bar: the music's beat is a third of the movement
+        (70.0, 210.0, 1, 3),  # quick feet under a body that moves on every beat: already the beat
+        (29.0, None, 1, 2),  # feet moving with a slow body: a Latin half bar or the beat, same tempo up to ×2
+        (110.0, None, 1, 2),
+    ],
+)
+def test_auto_splits_only_a_waltz_bar(
+    body_bpm: float, feet_bpm: float | None, auto: int, ballroom: int
+) -> None:
+    motion = dancer(body_bpm, feet_bpm)
+    for factor in (0.8, 1.0, 1.25):  # whatever speed the dance is played at
+        faster = time_scale_motion(motion, FPS, factor)
+        assert beats_for("auto", faster, FPS, "dwm21") == auto, factor
+        assert beats_for("ballroom", faster, FPS, "dwm21") == ballroom, factor
+    n, said = read_beats("auto", motion, FPS, "dwm21")
+    assert (
+        n == auto
+        and said.startswith(f"auto: the body moves {body_bpm:.0f}")
+        and said.endswith(f"{auto} beat{'s' if auto > 1 else ''} per movement")
+    )
+    assert read_beats(2, motion, FPS, "dwm21") == (2, "")
+
+
+def test_beats_per_movement_values() -> None:
+    assert [parse_beats_per_movement(t) for t in ("1", "8", "ballroom", "Auto ")] == [
+        1,
+        8,
+        "ballroom",
+        "auto",
+    ]
+    for bad in ("0", "9", "waltz", ""):
+        with pytest.raises(ValueError, match="must be 1 to 8, ballroom or auto"):
+            parse_beats_per_movement(bad)
+
+
 def test_the_dance_with_melody_waltzes_and_the_others(shared_data: Path) -> None:
     from momu.data.motion_files import read_motion_file
 
-    for dance, beats in (("DANCE_W_12", 3), ("DANCE_R_3", 2), ("DANCE_T_5", 2)):
+    for dance, beats, auto in (("DANCE_W_12", 3, 3), ("DANCE_R_3", 2, 1), ("DANCE_T_5", 2, 1)):
         got = read_motion_file(shared_data / "dance_with_melody" / dance)
         excerpt = got.motion[int(2 * got.fps) : int(17 * got.fps)]
         assert ballroom_beats_per_movement(excerpt, got.fps, "dwm21") == beats, dance
+        assert beats_for("auto", excerpt, got.fps, "dwm21") == auto, dance
     assert 1.548 < WALTZ_RATIO < 3.048
+    assert 37.7 < BAR_BPM < 50.0

@@ -129,7 +129,7 @@ def test_the_recipe_end_to_end_with_ground_truth_only(tmp_path: Path) -> None:
         (["--data", "/nonexistent/folder"], "--data"),
         (["--generator", "/nonexistent/model"], "--generator"),
         (["--seeds", "0", "0"], "--seeds"),
-        (["--beats-per-movement", "0"], "--beats-per-movement: must be 1 to 8 or ballroom"),
+        (["--beats-per-movement", "0"], "--beats-per-movement: must be 1 to 8, ballroom or auto"),
         (["--beats-per-movement", "ballroom"], "--beats-per-movement: only for dance → music with a model"),
     ],
 )

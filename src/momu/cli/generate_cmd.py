@@ -84,11 +84,12 @@ def add_parser(sub: Any) -> None:
     add_common(m, MUSIC_FORMATS, "use only the first SECONDS of the motion")
     m.add_argument(
         "--beats-per-movement",
-        default="1",
-        metavar="N|ballroom",
-        help="music beats per movement of the dance (default 1: the music's beat is the dance's period; "
-        "3 for a waltz danced once per bar, 2 for a Latin dance that moves once per half bar; "
-        "ballroom: 3 or 2 read from how often the feet move per body movement)",
+        default="auto",
+        metavar="N|ballroom|auto",
+        help="music beats per movement of the dance (1: the music's beat is the dance's period; 3 for a "
+        "waltz danced once per bar, 2 for a Latin dance that moves once per half bar; ballroom: 3 or 2 "
+        "read from how often the feet move per body movement; default auto: 3 for a dance that moves "
+        "once per waltz bar, else 1)",
     )
     m.set_defaults(func=run, direction="music")
     j = what.add_parser("joint", help="music and dance together (cross guidance, MoMu Alg. 2)")
@@ -214,13 +215,14 @@ def _music(args: argparse.Namespace) -> list[Path]:
     log.info("music for %s: %.1f s at %g fps", args.motion, motion.shape[0] / given.fps, given.fps)
     from momu.generation.momu_long import motion_to_music_long, plan_for_seconds  # after the checks
 
-    if beats == "ballroom":
-        from momu.features.ballroom_metre import beats_for_ratio, feet_body_ratio
-
-        ratio = feet_body_ratio(model_input, given.fps, record.skeleton)
-        beats = beats_for_ratio(ratio)
-        log.info("ballroom: the feet move %.2f times per body movement: %d beats per movement", ratio, beats)
     model = _load(record)
+    if beats == "auto" and not model.conditions.reads_dance_beats:
+        beats = 1  # a music conditioned on the dance's latent alone: nothing to split
+    if beats in ("ballroom", "auto"):
+        from momu.features.ballroom_metre import read_beats
+
+        beats, said = read_beats(beats, model_input, given.fps, record.skeleton)
+        log.info("%s", said)
     if beats != 1:
         try:
             model.use_beats_per_movement(beats)

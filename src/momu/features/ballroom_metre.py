@@ -12,6 +12,13 @@ threshold between the *train* split's two groups.
 
 It is a ballroom rule, fixed from 10 dances (the cue was noticed looking at all 23): a dance of any
 other kind, whose feet move with its body, is read as 2 beats per movement. Use it for ballroom dances.
+
+``auto`` (the default of ``momu generate music`` and of the benchmark) answers 3 only for a dancer who
+moves once per *waltz bar*: waltz feet (the ratio above :data:`WALTZ_RATIO`) under a body that rises
+and falls slower than :data:`BAR_BPM` times a minute; every other dance gets 1, how the model was
+trained. Dancers who move on every beat (``synth_dance``'s, whose waltzers' feet also step several
+times per movement, but 50 or more times a minute) keep the music at their own period, and for the Latin
+dances 2 and 1 are the same tempo up to an octave, which the benchmark's tempo match tolerates.
 """
 
 from __future__ import annotations
@@ -23,10 +30,14 @@ from momu.features.skeletons import get_skeleton
 __all__ = [
     "WALTZ_RATIO",
     "MAX_BEATS_PER_MOVEMENT",
+    "BAR_BPM",
+    "movement_tempi",
     "feet_body_ratio",
+    "auto_beats",
     "ballroom_beats_per_movement",
     "beats_for_ratio",
     "parse_beats_per_movement",
+    "read_beats",
     "beats_for",
 ]
 
@@ -36,14 +47,20 @@ split's largest other-style ratio (1.548) and smallest waltz ratio (3.048)
 (``benchmarks/results/dance_feet_body_ratio.json``)."""
 BODY_BPM = (20.0, 200.0)
 """Where the body's period is searched: ``motion_rhythm``'s ``periodogram_bpm``, as the shipped model's."""
+BAR_BPM = 43.4
+"""Body movements per minute below which a dance with waltz feet is read as moving once per bar
+(``auto``): the geometric mean of the train split's fastest waltz bar (37.7, played ×1.25) and the
+slowest ``synth_dance`` train dancer with waltz feet (50.0, a waltz danced on the beat, played ×0.8),
+over the benchmark's stretches (``benchmarks/results/dance_feet_body_ratio.json``)."""
 MAX_BEATS_PER_MOVEMENT = 8
 """Largest N of ``--beats-per-movement`` (a movement spanning two bars of 4/4)."""
 FEET_BPM = (20.0, 400.0)
 """Where the feet's is: a waltz's feet move about five times per bar (~150 BPM; ~190 played ×1.25)."""
 
 
-def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
-    """Dominant tempo of the feet's kinematic onsets over the whole body's (NaN when either has none)."""
+def movement_tempi(motion: np.ndarray, fps: float, skeleton: str) -> tuple[float, float]:
+    """Dominant tempi (per minute) of the whole body's kinematic onsets (θ_a's reading, 20-200) and of
+    the feet's (20-400); NaN where there is none."""
     from momu.features.rhythm import ENVELOPE_RATE, motion_envelope  # librosa: not for option parsing
     from momu.following.tempo import periodogram_tempo  # momu.following imports momu.features
 
@@ -52,7 +69,20 @@ def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
     names = get_skeleton(skeleton).joint_names
     feet = [i for i, n in enumerate(names) if n.endswith(("ankle", "heel", "toe", "foot"))]
     steps = periodogram_tempo(motion_envelope(x[:, feet], fps), ENVELOPE_RATE, FEET_BPM)
-    return float(steps / body)
+    return float(body), float(steps)
+
+
+def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
+    """Dominant tempo of the feet's kinematic onsets over the whole body's (NaN when either has none)."""
+    body, feet = movement_tempi(motion, fps, skeleton)
+    return feet / body
+
+
+def auto_beats(body_bpm: float, feet_bpm: float) -> int:
+    """``auto``: 3 when the feet move more than :data:`WALTZ_RATIO` times per body movement and the body
+    moves slower than :data:`BAR_BPM` times a minute (a waltz danced once per bar), else 1."""
+    ratio = feet_bpm / body_bpm if np.isfinite(body_bpm) and body_bpm > 0 else float("nan")
+    return 3 if beats_for_ratio(ratio) == 3 and body_bpm < BAR_BPM else 1
 
 
 def beats_for_ratio(ratio: float) -> int:
@@ -67,24 +97,38 @@ def ballroom_beats_per_movement(motion: np.ndarray, fps: float, skeleton: str) -
 
 
 def parse_beats_per_movement(text: str) -> int | str:
-    """``--beats-per-movement``: a whole number 1 to :data:`MAX_BEATS_PER_MOVEMENT`, or ``"ballroom"``.
+    """``--beats-per-movement``: a whole number 1 to :data:`MAX_BEATS_PER_MOVEMENT`, ``"ballroom"`` or
+    ``"auto"``.
 
     Raises:
         ValueError: anything else (the message names the option and the value).
     """
-    if text.strip().lower() == "ballroom":
-        return "ballroom"
+    if text.strip().lower() in ("ballroom", "auto"):
+        return text.strip().lower()
     try:
         beats = int(text)
     except ValueError:
         beats = 0
     if not 1 <= beats <= MAX_BEATS_PER_MOVEMENT:
         raise ValueError(
-            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT} or ballroom, got {text!r}"
+            f"--beats-per-movement: must be 1 to {MAX_BEATS_PER_MOVEMENT}, ballroom or auto, got {text!r}"
         )
     return beats
 
 
+def read_beats(beats: int | str, motion: np.ndarray, fps: float, skeleton: str) -> tuple[int, str]:
+    """``beats`` as a number, ``"ballroom"`` or ``"auto"`` read from ``(T, J, 3)`` world positions of
+    ``skeleton``, with a line saying what was read (empty for a number)."""
+    if beats not in ("ballroom", "auto"):
+        return int(beats), ""
+    body, feet = movement_tempi(motion, fps, skeleton)
+    n = beats_for_ratio(feet / body) if beats == "ballroom" else auto_beats(body, feet)
+    return n, (
+        f"{beats}: the body moves {body:.1f} times a minute, the feet {feet / body:.2f} times per body "
+        f"movement: {n} beat{'s' if n > 1 else ''} per movement"
+    )
+
+
 def beats_for(beats: int | str, motion: np.ndarray, fps: float, skeleton: str) -> int:
-    """``beats`` as a number: ``"ballroom"`` read from ``motion`` (:func:`ballroom_beats_per_movement`)."""
-    return ballroom_beats_per_movement(motion, fps, skeleton) if beats == "ballroom" else int(beats)
+    """``beats`` as a number (:func:`read_beats` without its line)."""
+    return read_beats(beats, motion, fps, skeleton)[0]

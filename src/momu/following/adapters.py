@@ -54,7 +54,7 @@ class _MoMuMusic:
     """MoMu dance → music; the motion is mapped to the model's skeleton (by its joint count) and stood on
     the floor like ``momu generate music`` does."""
 
-    def __init__(self, model: Any, skeleton: str, beats_per_movement: int | str = 1) -> None:
+    def __init__(self, model: Any, skeleton: str, beats_per_movement: int | str = "auto") -> None:
         self.model = model
         self.skeleton = skeleton
         self.beats_per_movement = beats_per_movement
@@ -104,12 +104,13 @@ def model_name(folder: Path) -> str:
 
 
 def from_model_dir(
-    folder: str | Path, direction: str = "dance", beats_per_movement: int | str = 1
+    folder: str | Path, direction: str = "dance", beats_per_movement: int | str = "auto"
 ) -> DanceGenerator | MusicGenerator:
     """The generator of ``direction`` (``"dance"``: music → dance, ``"music"``: dance → music) of a saved
     model folder (``momu.json``, ``mofusion.json`` or ``harmogan.json``), loaded once.
-    ``beats_per_movement`` (MoMu's music only): N or ``"ballroom"``, as ``momu generate music
-    --beats-per-movement`` (:mod:`momu.features.ballroom_metre`).
+    ``beats_per_movement`` (MoMu's music only): N, ``"ballroom"`` or ``"auto"``, as ``momu generate
+    music --beats-per-movement`` (:mod:`momu.features.ballroom_metre`; ``"auto"``, the default, is 1 for
+    a model whose music is not conditioned on the dance's beats).
 
     Raises:
         GenerateInputError: not a model folder, a model that cannot generate ``direction`` (MoFusion and
@@ -125,6 +126,8 @@ def from_model_dir(
             model = MoMuModel.load(record.folder)
         except (OSError, ValueError, KeyError) as exc:
             raise GenerateInputError(f"--model {record.folder}: cannot load: {exc}") from None
+        if beats_per_movement == "auto" and not model.conditions.reads_dance_beats:
+            beats_per_movement = 1
         if direction == "music" and beats_per_movement != 1:
             try:
                 model.conditions.with_beats_per_movement(2)  # its music has beats to split (a check)

@@ -74,10 +74,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--beats-per-movement",
-        default="1",
-        metavar="N|ballroom",
+        default=None,
+        metavar="N|ballroom|auto",
         help="dance → music with a MoMu model: music beats per movement of the dance, as momu generate "
-        "music --beats-per-movement (default 1)",
+        "music --beats-per-movement (default auto, as there)",
     )
     p.add_argument(
         "--no-controls", action="store_true", help="skip the control inputs (silence, noise, clicks ...)"
@@ -117,11 +117,12 @@ def _check(args: argparse.Namespace) -> tuple[list[str], str | None, str]:
     directions = ["dance", "music"] if args.direction == "both" else [args.direction]
     from momu.features.ballroom_metre import parse_beats_per_movement
 
+    given = args.beats_per_movement is not None
     try:
-        args.beats_per_movement = parse_beats_per_movement(args.beats_per_movement)
+        args.beats_per_movement = parse_beats_per_movement(args.beats_per_movement or "auto")
     except ValueError as exc:
         raise BenchmarkInputError(str(exc)) from None
-    if args.beats_per_movement != 1 and ("music" not in directions or args.generator == "ground_truth_only"):
+    if given and ("music" not in directions or args.generator == "ground_truth_only"):
         raise BenchmarkInputError(
             "--beats-per-movement: only for dance → music with a model (--direction music)"
         )
@@ -171,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             for d in directions:
                 beats = args.beats_per_movement if d == "music" else 1
-                label = name if beats == 1 else f"{name}, beats per movement {beats}"
+                label = name if d == "dance" or beats == "auto" else f"{name}, beats per movement {beats}"
                 generators[d][label] = from_model_dir(folder, d, beats)
         generated: dict[str, dict[str, Any]] = {d: {} for d in directions}
         if args.generated is not None:
@@ -225,7 +226,7 @@ def _run(
             "songs": len(pairs),
             "seconds": args.seconds,
             "seeds": " ".join(map(str, args.seeds)),
-            **({} if args.beats_per_movement == 1 else {"beats_per_movement": args.beats_per_movement}),
+            **({"beats_per_movement": args.beats_per_movement} if generators.get("music") else {}),
         },
         "dataset": node,
         "directions": directions,

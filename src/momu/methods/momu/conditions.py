@@ -112,6 +112,12 @@ class Conditions:
             return np.asarray(clip.motion)
         return self.motion_in(world_positions(clip), clip.fps)
 
+    @property
+    def reads_dance_beats(self) -> bool:
+        """Whether θ_a's condition is a rhythm part that reads a dance's beats (``subdivide``): what
+        :meth:`with_beats_per_movement` splits."""
+        return hasattr(getattr(self.from_motion, "cfg", None), "subdivide")
+
     def with_beats_per_movement(self, beats: int) -> Conditions:
         """These conditions with θ_a's rhythm split into ``beats`` beats per beat it tracks on a dance
         (its ``subdivide``: a dancer who moves once per bar of a waltz, ``beats=3``, gives music at the
@@ -121,7 +127,7 @@ class Conditions:
             ValueError: ``beats`` < 1, or θ_a is not conditioned on a rhythm part with ``subdivide``.
         """
         cfg = getattr(self.from_motion, "cfg", None)
-        if cfg is None or not hasattr(cfg, "subdivide"):
+        if cfg is None or not self.reads_dance_beats:
             raise ValueError("this model's music is not conditioned on the dance's beats (music_condition)")
         if beats < 1:
             raise ValueError(f"beats per movement must be >= 1, got {beats}")
