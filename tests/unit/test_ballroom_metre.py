@@ -84,6 +84,15 @@ def test_auto_splits_only_a_waltz_bar(
     assert read_beats(2, motion, FPS, "dwm21") == (2, "")
 
 
+def test_a_frozen_pose_keeps_the_dancers_period() -> None:
+    still = np.zeros((int(10 * FPS), 21, 3))
+    assert read_beats("auto", still, FPS, "dwm21") == (
+        1,
+        "auto: no steady movement of the body and feet found: 1 beat per movement",
+    )
+    assert read_beats("ballroom", still, FPS, "dwm21")[0] == 2
+
+
 def test_beats_per_movement_values() -> None:
     assert [parse_beats_per_movement(t) for t in ("1", "8", "ballroom", "Auto ")] == [
         1,

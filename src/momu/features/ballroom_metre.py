@@ -123,10 +123,12 @@ def read_beats(beats: int | str, motion: np.ndarray, fps: float, skeleton: str) 
         return int(beats), ""
     body, feet = movement_tempi(motion, fps, skeleton)
     n = beats_for_ratio(feet / body) if beats == "ballroom" else auto_beats(body, feet)
-    return n, (
-        f"{beats}: the body moves {body:.1f} times a minute, the feet {feet / body:.2f} times per body "
-        f"movement: {n} beat{'s' if n > 1 else ''} per movement"
+    read = (
+        f"the body moves {body:.1f} times a minute, the feet {feet / body:.2f} times per body movement"
+        if np.isfinite(feet / body)
+        else "no steady movement of the body and feet found"
     )
+    return n, f"{beats}: {read}: {n} beat{'s' if n > 1 else ''} per movement"
 
 
 def beats_for(beats: int | str, motion: np.ndarray, fps: float, skeleton: str) -> int:
