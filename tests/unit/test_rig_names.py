@@ -1,4 +1,5 @@
-"""BVH rigs exported by animation tools (Mixamo, CMU, SMPL exporters, Unreal) read as a body."""
+"""BVH rigs exported by animation tools (Mixamo, CMU, SMPL exporters, Unreal, Blender Rigify) read as a
+body."""
 
 from __future__ import annotations
 
@@ -43,6 +44,15 @@ RIGS = {
         "r_collar": "clavicle_r", "head": "head", "l_shoulder": "upperarm_l", "r_shoulder": "upperarm_r",
         "l_elbow": "lowerarm_l", "r_elbow": "lowerarm_r", "l_wrist": "hand_l", "r_wrist": "hand_r",
         "l_hand": "middle_01_l", "r_hand": "middle_01_r",
+    },
+    "rigify": {
+        "pelvis": "DEF-spine", "l_hip": "DEF-thigh.L", "r_hip": "DEF-thigh.R", "spine1": "DEF-spine.001",
+        "l_knee": "DEF-shin.L", "r_knee": "DEF-shin.R", "spine2": "DEF-spine.002", "l_ankle": "DEF-foot.L",
+        "r_ankle": "DEF-foot.R", "spine3": "DEF-spine.003", "l_foot": "DEF-toe.L", "r_foot": "DEF-toe.R",
+        "neck": "DEF-spine.004", "l_collar": "DEF-shoulder.L", "r_collar": "DEF-shoulder.R",
+        "head": "DEF-spine.006", "l_shoulder": "DEF-upper_arm.L", "r_shoulder": "DEF-upper_arm.R",
+        "l_elbow": "DEF-forearm.L", "r_elbow": "DEF-forearm.R", "l_wrist": "DEF-hand.L",
+        "r_wrist": "DEF-hand.R", "l_hand": "DEF-f_middle.01.L", "r_hand": "DEF-f_middle.01.R",
     },
 }  # fmt: skip
 
@@ -102,6 +112,17 @@ def test_names_are_normalised_and_no_name_means_two_body_points() -> None:
     # spine joints are never read: rigs count them differently (Mixamo's Spine2 is CMU's Spine1)
     assert not any(name.startswith("spine") for name in RIG_NAMES)
     assert rig_landmarks(["Hips", "LeftUpLeg", "hips", "LeftHandIndex1"]) == {"pelvis": 0, "l_hip": 1}
+    # Rigify's neck and head are spine bones by number; its twist halves are not joints of the body
+    assert rig_landmarks(["DEF-spine.004", "DEF-spine.006", "DEF-spine.005", "DEF-thigh.L.001"]) == {
+        "neck": 0,
+        "head": 1,
+    }
+    # a whole Rigify rig's controls "hips", "neck", "head" give way to its deform bones
+    assert rig_landmarks(["hips", "neck", "DEF-spine", "DEF-spine.004", "head"]) == {
+        "pelvis": 2,
+        "neck": 3,
+        "head": 4,
+    }
 
 
 def test_a_rig_without_a_body_fails_in_one_line_naming_what_it_lacks(

@@ -1,9 +1,10 @@
 """Joint names of the BVH rigs that animation tools export, as momu's body landmarks.
 
-A BVH file from Mixamo, a CMU / MotionBuilder (HumanIK) conversion, Rokoko, an SMPL exporter or
-Unreal's mannequin names its joints its own way ("mixamorig:LeftUpLeg", "L_Hip", "thigh_l" are one
-body point). :func:`rig_landmarks` reads such names as the landmarks of :mod:`momu.features.convert`
-(``l_hip``, ``r_wrist``, ``head`` ...), so that :func:`momu.features.convert.landmark_matrix` can
+A BVH file from Mixamo, a CMU / MotionBuilder (HumanIK) conversion, Rokoko, an SMPL exporter,
+Unreal's mannequin or a Blender Rigify rig's deform bones names its joints its own way
+("mixamorig:LeftUpLeg", "L_Hip", "thigh_l", "DEF-thigh.L" are one body point). :func:`rig_landmarks`
+reads such names as the landmarks of :mod:`momu.features.convert` (``l_hip``, ``r_wrist``, ``head``
+...), so that :func:`momu.features.convert.landmark_matrix` can
 pose them on a registered skeleton: joints that are the same body point map one to one and the rest
 (spine points, collars, hand tips, toes) are derived as for any conversion.
 
@@ -13,7 +14,9 @@ dropped, then case and the separators ``_ . - space`` are. The families below di
 the normalised names keep apart (``leftshoulder`` vs ``lshoulder``). Only body points are read;
 fingers, end sites, twist bones and the spine's own joints are left out (the spine points momu needs
 lie between the pelvis and the neck, :data:`momu.features.convert.DERIVED`), so rigs that count their
-spine joints differently (Mixamo's ``Spine2`` is CMU's ``Spine1``) cannot be misread.
+spine joints differently (Mixamo's ``Spine2`` is CMU's ``Spine1``) cannot be misread. Rigify is the
+exception that proves it: its deform bones are all ``DEF-spine.NNN``, the pelvis (``DEF-spine``), the
+neck (``.004``) and the head (``.006``) included, so those three are read by their full names.
 """
 
 from __future__ import annotations
@@ -68,10 +71,35 @@ RIG_FAMILIES: Mapping[str, tuple[tuple[str, str], Mapping[str, str]]] = {
             "hand": "wrist",
         },
     ),
+    # Blender Rigify's deform bones: DEF-thigh.L, DEF-shin.L, DEF-upper_arm.L ... (twist halves,
+    # DEF-thigh.L.001, are not read)
+    "rigify": (
+        ("def{}l", "def{}r"),
+        {
+            "thigh": "hip",
+            "shin": "knee",
+            "foot": "ankle",
+            "toe": "toe",
+            "shoulder": "collar",
+            "upperarm": "shoulder",
+            "forearm": "elbow",
+            "hand": "wrist",
+        },
+    ),
 }
 """Per family: the side patterns (left, right) and its limb names → the landmark's part."""
 
-_CENTRE = {"hips": "pelvis", "pelvis": "pelvis", "neck": "neck", "neck01": "neck", "head": "head"}
+_CENTRE = {
+    "hips": "pelvis",
+    "pelvis": "pelvis",
+    "neck": "neck",
+    "neck01": "neck",
+    "head": "head",
+    # Rigify numbers its neck and head as spine bones (the human metarig: spine.004-.005 neck, .006 head)
+    "defspine": "pelvis",
+    "defspine004": "neck",
+    "defspine006": "head",
+}
 
 
 def _names() -> dict[str, str]:
@@ -95,10 +123,13 @@ def normalise_joint_name(name: str) -> str:
 
 
 def rig_landmarks(names: Sequence[str]) -> dict[str, int]:
-    """Landmark → index in ``names`` of the joints :data:`RIG_NAMES` knows (the first of a repeated one)."""
+    """Landmark → index in ``names`` of the joints :data:`RIG_NAMES` knows (the first of a repeated one;
+    a Rigify deform bone before any other: a whole Rigify rig also has controls named ``hips``, ``neck``
+    and ``head`` that do not sit on those joints)."""
     out: dict[str, int] = {}
-    for i, name in enumerate(names):
-        landmark = RIG_NAMES.get(normalise_joint_name(name))
+    found = [(normalise_joint_name(name), i) for i, name in enumerate(names)]
+    for key, i in sorted(found, key=lambda f: not f[0].startswith("def")):  # stable: file order within
+        landmark = RIG_NAMES.get(key)
         if landmark is not None:
             out.setdefault(landmark, i)
     return out
