@@ -70,6 +70,18 @@ def test_bad_beats_per_movement_fail_in_one_line_writing_nothing(
     assert not out.exists()
 
 
+def _music_said(
+    caplog: pytest.LogCaptureFixture, motion: Path, out: Path, rule: str, *options: str
+) -> list[str]:
+    """``momu generate music --motion motion --out out *options`` (it must write ``out``): the INFO lines
+    that say what ``rule`` (``auto`` / ``ballroom``) read."""
+    caplog.clear()
+    with caplog.at_level("INFO"):
+        assert main(["generate", "music", "--motion", str(motion), "--out", str(out), *options]) == 0
+    assert out.is_file()
+    return [r.getMessage() for r in caplog.records if r.getMessage().startswith(f"{rule}:")]
+
+
 def test_ballroom_reads_the_beats_per_movement_from_the_dance(
     dance: tuple[Path, np.ndarray, float], tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
@@ -78,25 +90,7 @@ def test_ballroom_reads_the_beats_per_movement_from_the_dance(
     except GenerateInputError:
         pytest.skip("no shipped model in this installation")
     path, _, _ = dance
-    out = tmp_path / "music.wav"
-    with caplog.at_level("INFO"):
-        assert (
-            main(
-                [
-                    "generate",
-                    "music",
-                    "--motion",
-                    str(path),
-                    "--out",
-                    str(out),
-                    "--beats-per-movement",
-                    "ballroom",
-                ]
-            )
-            == 0
-        )
-    assert out.is_file()
-    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("ballroom:")]
+    said = _music_said(caplog, path, tmp_path / "music.wav", "ballroom", "--beats-per-movement", "ballroom")
     assert len(said) == 1 and said[0].endswith(("2 beats per movement", "3 beats per movement")), said
 
 
@@ -107,36 +101,12 @@ def test_auto_is_the_default_and_says_what_it_read(
     does not read the dance's beats is left as it is, silently."""
     path, motion, fps = dance
     tiny = tiny_3d_model(tmp_path / "tiny")
-    with caplog.at_level("INFO"):
-        assert (
-            main(
-                [
-                    "generate",
-                    "music",
-                    "--motion",
-                    str(path),
-                    "--out",
-                    str(tmp_path / "a.wav"),
-                    "--model",
-                    str(tiny),
-                    "--quiet",
-                ]
-            )
-            == 0
-        )
-    assert (tmp_path / "a.wav").is_file()
-    assert not [r for r in caplog.records if r.getMessage().startswith("auto:")]
+    assert not _music_said(caplog, path, tmp_path / "a.wav", "auto", "--model", str(tiny), "--quiet")
     try:
         default_model_dir("music")
     except GenerateInputError:
         pytest.skip("no shipped model in this installation")
-    caplog.clear()
-    with caplog.at_level("INFO"):
-        assert (
-            main(["generate", "music", "--motion", str(path), "--out", str(tmp_path / "b.wav"), "--quiet"])
-            == 0
-        )
-    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("auto:")]
+    said = _music_said(caplog, path, tmp_path / "b.wav", "auto", "--quiet")
     from momu.features.ballroom_metre import beats_for
 
     n = beats_for("auto", motion, fps, "dwm21")

@@ -81,8 +81,7 @@ def feet_body_ratio(motion: np.ndarray, fps: float, skeleton: str) -> float:
 def auto_beats(body_bpm: float, feet_bpm: float) -> int:
     """``auto``: 3 when the feet move more than :data:`WALTZ_RATIO` times per body movement and the body
     moves slower than :data:`BAR_BPM` times a minute (a waltz danced once per bar), else 1."""
-    ratio = feet_bpm / body_bpm if np.isfinite(body_bpm) and body_bpm > 0 else float("nan")
-    return 3 if beats_for_ratio(ratio) == 3 and body_bpm < BAR_BPM else 1
+    return 3 if beats_for_ratio(feet_bpm / body_bpm) == 3 and body_bpm < BAR_BPM else 1
 
 
 def beats_for_ratio(ratio: float) -> int:
